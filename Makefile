@@ -1,0 +1,41 @@
+# Two commands on a fresh machine: `make demo` and `make test`. Both create .venv first.
+SHELL := /bin/bash
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed-stamp
+
+# Real DDS on this machine only, with a shared-memory segment big enough for camera frames.
+export ROS_AUTOMATIC_DISCOVERY_RANGE ?= LOCALHOST
+export RMW_IMPLEMENTATION ?= rmw_fastrtps_cpp
+export FASTRTPS_DEFAULT_PROFILES_FILE ?= $(CURDIR)/config/fastdds_large_shm.xml
+export PYTHONHASHSEED := 0
+
+.PHONY: demo test bench lint bags clean venv
+
+venv: $(STAMP)
+
+$(STAMP): requirements.txt requirements-dev.txt
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade "pip>=24"
+	$(PY) -m pip install --quiet -r requirements-dev.txt
+	# The checkout itself goes on the venv's path (an editable install without a build step).
+	$(PY) -c 'import site, sys; open(site.getsitepackages()[0] + "/human_tracker_checkout.pth", "w").write(sys.argv[1])' $(CURDIR)
+	touch $(STAMP)
+
+demo: $(STAMP)
+	$(PY) -m human_tracker.demo --bag bags/head_basic --out out/demo
+
+test: $(STAMP)
+	$(PY) -m ruff check human_tracker test launch setup.py
+	$(PY) -m pytest -q test
+
+lint: $(STAMP)
+	$(PY) -m ruff check human_tracker test launch setup.py
+
+# Regenerate the bundled bags from the seeded scene generator.
+bags: $(STAMP)
+	$(PY) -m human_tracker.cli generate --all --out bags
+
+clean:
+	rm -rf $(VENV) out build install log

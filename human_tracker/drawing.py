@@ -1,0 +1,55 @@
+"""Annotated frames for people: the fitted contour, the particle cloud, boxes and a label."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+__all__ = ['annotate']
+
+_CONTOUR = (0, 255, 0)
+_BOX = (0, 200, 255)
+_TRUTH = (255, 0, 255)
+_PARTICLE = (255, 200, 0)
+
+
+def _rect(image: np.ndarray, box: tuple[float, float, float, float], colour: tuple[int, int, int]) -> None:
+    x, y, w, h = (int(round(v)) for v in box)
+    cv2.rectangle(image, (x, y), (x + w, y + h), colour, 1, cv2.LINE_AA)
+
+
+def annotate(
+    image: np.ndarray,
+    *,
+    contour: np.ndarray | None = None,
+    box: tuple[float, float, float, float] | None = None,
+    particles: np.ndarray | None = None,
+    truth: tuple[float, float, float, float] | None = None,
+    label: str = '',
+    closed: bool = False,
+) -> np.ndarray:
+    """Return a copy of ``image`` (BGR) with the tracker's output drawn on it.
+
+    Args:
+        image: ``(H, W, 3) uint8`` BGR frame (mono is converted).
+        contour: ``(N, 2)`` fitted contour, pixels (green).
+        box: Reference-region box (x, y, w, h) of the estimate, pixels (orange).
+        particles: ``(P, >=2)`` particle states; their x, y are drawn as dots (cyan).
+        truth: Ground-truth box, pixels (magenta).
+        label: Text written in the top-left corner.
+        closed: Draw the contour as a closed curve.
+    """
+    out = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR) if image.ndim == 2 else image.copy()
+    if particles is not None:
+        for x, y in np.round(particles[:, :2]).astype(np.int32):
+            cv2.circle(out, (int(x), int(y)), 1, _PARTICLE, -1)
+    if truth is not None:
+        _rect(out, truth, _TRUTH)
+    if box is not None:
+        _rect(out, box, _BOX)
+    if contour is not None:
+        cv2.polylines(out, [np.round(contour).astype(np.int32)], closed, _CONTOUR, 2, cv2.LINE_AA)
+    if label:
+        cv2.putText(out, label, (8, 20), cv2.FONT_HERSHEY_SIMPLEX, 0.55, (0, 0, 0), 3, cv2.LINE_AA)
+        cv2.putText(out, label, (8, 20), cv2.FONT_HERSHEY_SIMPLEX, 0.55, (255, 255, 255), 1, cv2.LINE_AA)
+    return out

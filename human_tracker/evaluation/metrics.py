@@ -1,0 +1,82 @@
+"""Tracking-benchmark (OTB) metrics on bounding boxes ``(x, y, w, h)`` in pixels.
+
+Only annotated frames count: a ground-truth box that is None or has zero area is skipped.
+A frame where the tracker gave no box counts as a failure (infinite error, zero overlap).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+__all__ = ['Box', 'centre_errors', 'overlaps', 'precision_at', 'success_curve', 'success_auc', 'summarise']
+
+Box = tuple[float, float, float, float]
+
+
+def _annotated(truth: Sequence[Box | None]) -> np.ndarray:
+    return np.array([t is not None and t[2] > 0 and t[3] > 0 for t in truth], dtype=bool)
+
+
+def centre_errors(predicted: Sequence[Box | None], truth: Sequence[Box | None]) -> np.ndarray:
+    """Distance in pixels between box centres on the annotated frames (inf where no prediction)."""
+    if len(predicted) != len(truth):
+        raise ValueError(f'{len(predicted)} predictions for {len(truth)} ground-truth boxes')
+    errors = []
+    for p, t in zip(predicted, truth, strict=True):
+        if t is None or t[2] <= 0 or t[3] <= 0:
+            continue
+        if p is None:
+            errors.append(np.inf)
+            continue
+        errors.append(float(np.hypot(p[0] + p[2] / 2 - t[0] - t[2] / 2, p[1] + p[3] / 2 - t[1] - t[3] / 2)))
+    return np.array(errors, dtype=np.float64)
+
+
+def overlaps(predicted: Sequence[Box | None], truth: Sequence[Box | None]) -> np.ndarray:
+    """Intersection over union of the boxes on the annotated frames (0 where no prediction)."""
+    keep = _annotated(truth)
+    values = []
+    for p, t, k in zip(predicted, truth, keep, strict=True):
+        if not k:
+            continue
+        if p is None:
+            values.append(0.0)
+            continue
+        ix = max(0.0, min(p[0] + p[2], t[0] + t[2]) - max(p[0], t[0]))
+        iy = max(0.0, min(p[1] + p[3], t[1] + t[3]) - max(p[1], t[1]))
+        inter = ix * iy
+        union = p[2] * p[3] + t[2] * t[3] - inter
+        values.append(inter / union if union > 0 else 0.0)
+    return np.array(values, dtype=np.float64)
+
+
+def precision_at(errors: np.ndarray, threshold: float = 20.0) -> float:
+    """Fraction of annotated frames whose centre error is within ``threshold`` pixels."""
+    return float(np.mean(errors <= threshold)) if errors.size else float('nan')
+
+
+def success_curve(ious: np.ndarray, thresholds: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Fraction of frames with IoU above each threshold (default 0, 0.05, ..., 1)."""
+    if thresholds is None:
+        thresholds = np.linspace(0.0, 1.0, 21)
+    rates = np.array([np.mean(ious > th) if ious.size else np.nan for th in thresholds])
+    return thresholds, rates
+
+
+def success_auc(ious: np.ndarray) -> float:
+    """Area under the success curve (the mean of the curve over its 21 thresholds)."""
+    return float(np.mean(success_curve(ious)[1]))
+
+
+def summarise(predicted: Sequence[Box | None], truth: Sequence[Box | None]) -> dict[str, float]:
+    """Precision at 20 px, success AUC, mean centre error and the annotated frame count."""
+    errors = centre_errors(predicted, truth)
+    finite = errors[np.isfinite(errors)]
+    return {
+        'annotated_frames': int(errors.size),
+        'precision_20px': precision_at(errors, 20.0),
+        'success_auc': success_auc(overlaps(predicted, truth)),
+        'mean_centre_error_px': float(finite.mean()) if finite.size else float('nan'),
+    }

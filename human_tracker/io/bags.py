@@ -1,0 +1,191 @@
+"""rosbag2 bags in and out (sqlite3 and mcap) through the ``rosbags`` library, no ROS needed.
+
+Camera topics hold ``sensor_msgs/msg/Image`` or ``CompressedImage``; ground truth is
+``geometry_msgs/msg/PolygonStamped`` on ``/ground_truth/<target>`` (the target's box as four
+corners, or no points where the target is out of view).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+from rosbags.highlevel import AnyReader, AnyReaderError
+from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.typesys import Stores, get_typestore
+
+from human_tracker.scenes.generator import SceneSpec, render_scene
+from human_tracker.vision.camera import default_camera_matrix
+
+__all__ = [
+    'BagError',
+    'BagFrame',
+    'CAMERA_TOPIC',
+    'COMPRESSED_CAMERA_TOPIC',
+    'CAMERA_INFO_TOPIC',
+    'ground_truth_topic',
+    'write_scene_bag',
+    'read_frames',
+]
+
+CAMERA_TOPIC = '/camera/image_raw'
+COMPRESSED_CAMERA_TOPIC = '/camera/image_raw/compressed'
+CAMERA_INFO_TOPIC = '/camera/camera_info'
+CAMERA_FRAME = 'camera_optical_frame'
+_IMAGE_TYPES = ('sensor_msgs/msg/Image', 'sensor_msgs/msg/CompressedImage')
+
+TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
+
+
+class BagError(RuntimeError):
+    """A bag cannot be read or holds no usable camera topic; the message says why."""
+
+
+def ground_truth_topic(target: str) -> str:
+    """Topic of the ground-truth outline of ``target`` (``head`` or ``hand``)."""
+    return f'/ground_truth/{target}'
+
+
+def _header(stamp_ns: int) -> object:
+    types = TYPESTORE.types
+    stamp = types['builtin_interfaces/msg/Time'](sec=stamp_ns // 1_000_000_000, nanosec=stamp_ns % 1_000_000_000)
+    return types['std_msgs/msg/Header'](stamp=stamp, frame_id=CAMERA_FRAME)
+
+
+def _camera_info(spec: SceneSpec, stamp_ns: int) -> object:
+    k = default_camera_matrix(spec.width, spec.height)
+    projection = np.hstack([k, np.zeros((3, 1))])
+    return TYPESTORE.types['sensor_msgs/msg/CameraInfo'](
+        header=_header(stamp_ns),
+        height=spec.height,
+        width=spec.width,
+        distortion_model='plumb_bob',
+        d=np.zeros(5),
+        k=k.reshape(-1),
+        r=np.eye(3).reshape(-1),
+        p=projection.reshape(-1),
+        binning_x=0,
+        binning_y=0,
+        roi=TYPESTORE.types['sensor_msgs/msg/RegionOfInterest'](x_offset=0, y_offset=0, height=0, width=0, do_rectify=False),
+    )
+
+
+def _polygon(stamp_ns: int, box: tuple[float, float, float, float] | None) -> object:
+    types = TYPESTORE.types
+    point = types['geometry_msgs/msg/Point32']
+    corners = []
+    if box is not None:
+        x, y, w, h = box
+        corners = [point(x=x, y=y, z=0.0), point(x=x + w, y=y, z=0.0), point(x=x + w, y=y + h, z=0.0), point(x=x, y=y + h, z=0.0)]
+    return types['geometry_msgs/msg/PolygonStamped'](header=_header(stamp_ns), polygon=types['geometry_msgs/msg/Polygon'](points=corners))
+
+
+def write_scene_bag(
+    spec: SceneSpec,
+    path: str | Path,
+    *,
+    compressed: bool = True,
+    storage: str = 'mcap',
+    jpeg_quality: int = 75,
+    target: str = 'head',
+) -> Path:
+    """Render ``spec`` and record it as a rosbag2 bag.
+
+    Args:
+        spec: The scene.
+        path: Bag folder to create (must not exist).
+        compressed: Record JPEG ``CompressedImage`` on :data:`COMPRESSED_CAMERA_TOPIC`
+            (small bags) instead of raw bgr8 ``Image`` on :data:`CAMERA_TOPIC`.
+        storage: ``mcap`` or ``sqlite3``.
+        jpeg_quality: JPEG quality 0-100 for compressed frames.
+        target: Ground-truth topic suffix.
+
+    Returns:
+        The bag's path.
+    """
+    path = Path(path)
+    plugin = {'mcap': StoragePlugin.MCAP, 'sqlite3': StoragePlugin.SQLITE3}[storage]
+    types = TYPESTORE.types
+    with Writer(path, version=9, storage_plugin=plugin) as writer:
+        image_type = 'sensor_msgs/msg/CompressedImage' if compressed else 'sensor_msgs/msg/Image'
+        camera = writer.add_connection(COMPRESSED_CAMERA_TOPIC if compressed else CAMERA_TOPIC, image_type, typestore=TYPESTORE)
+        info = writer.add_connection(CAMERA_INFO_TOPIC, 'sensor_msgs/msg/CameraInfo', typestore=TYPESTORE)
+        truth = writer.add_connection(ground_truth_topic(target), 'geometry_msgs/msg/PolygonStamped', typestore=TYPESTORE)
+        for frame in render_scene(spec):
+            header = _header(frame.stamp_ns)
+            if compressed:
+                ok, encoded = cv2.imencode('.jpg', frame.image, [cv2.IMWRITE_JPEG_QUALITY, jpeg_quality])
+                assert ok
+                msg = types['sensor_msgs/msg/CompressedImage'](header=header, format='bgr8; jpeg compressed bgr8', data=encoded.reshape(-1))
+            else:
+                h, w = frame.image.shape[:2]
+                msg = types['sensor_msgs/msg/Image'](header=header, height=h, width=w, encoding='bgr8', is_bigendian=0, step=w * 3, data=frame.image.reshape(-1))
+            writer.write(camera, frame.stamp_ns, TYPESTORE.serialize_cdr(msg, image_type))
+            writer.write(info, frame.stamp_ns, TYPESTORE.serialize_cdr(_camera_info(spec, frame.stamp_ns), 'sensor_msgs/msg/CameraInfo'))
+            writer.write(truth, frame.stamp_ns, TYPESTORE.serialize_cdr(_polygon(frame.stamp_ns, frame.head_box), 'geometry_msgs/msg/PolygonStamped'))
+    return path
+
+
+@dataclass
+class BagFrame:
+    """A camera frame read from a bag.
+
+    Attributes:
+        index: Frame index from 0 in the bag.
+        stamp_ns: Header stamp, nanoseconds.
+        message: The deserialised image message (rosbags types: fields as in ROS).
+        ground_truth: ``(x, y, w, h)`` box of the target at this stamp, None when the target
+            is not annotated or out of view, or when the bag has no ground truth.
+    """
+
+    index: int
+    stamp_ns: int
+    message: object
+    ground_truth: tuple[float, float, float, float] | None
+
+
+def _stamp_ns(msg: object) -> int:
+    stamp = msg.header.stamp  # type: ignore[attr-defined]
+    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+
+
+def read_frames(path: str | Path, *, camera_topic: str | None = None, target: str = 'head') -> Iterator[BagFrame]:
+    """Iterate over the camera frames of a bag with their ground truth matched by stamp.
+
+    Args:
+        path: Bag folder, or a single ``.mcap`` / ``.db3`` file.
+        camera_topic: Topic to read; by default the first Image or CompressedImage topic.
+        target: Which ``/ground_truth/<target>`` topic to match.
+
+    Raises:
+        BagError: The bag is missing, unreadable, or has no such camera topic.
+    """
+    path = Path(path)
+    if path.is_file():
+        path = path.parent
+    try:
+        with AnyReader([path], default_typestore=TYPESTORE) as reader:
+            cameras = [c for c in reader.connections if c.msgtype in _IMAGE_TYPES and (camera_topic is None or c.topic == camera_topic)]
+            if not cameras:
+                found = ', '.join(sorted(f'{c.topic} ({c.msgtype})' for c in reader.connections)) or 'none'
+                raise BagError(f'{path}: no camera topic {camera_topic or "(Image or CompressedImage)"}; topics: {found}')
+            camera = cameras[0]
+            truth_connections = [c for c in reader.connections if c.topic == ground_truth_topic(target)]
+            truth: dict[int, tuple[float, float, float, float] | None] = {}
+            for conn, _, raw in reader.messages(connections=truth_connections):
+                polygon = reader.deserialize(raw, conn.msgtype)
+                points = np.array([[p.x, p.y] for p in polygon.polygon.points], dtype=np.float64)
+                box = None
+                if len(points):
+                    lo, hi = points.min(axis=0), points.max(axis=0)
+                    box = (float(lo[0]), float(lo[1]), float(hi[0] - lo[0]), float(hi[1] - lo[1]))
+                truth[_stamp_ns(polygon)] = box
+            for index, (conn, _, raw) in enumerate(reader.messages(connections=[camera])):
+                msg = reader.deserialize(raw, conn.msgtype)
+                stamp = _stamp_ns(msg)
+                yield BagFrame(index, stamp, msg, truth.get(stamp))
+    except AnyReaderError as err:
+        raise BagError(f'cannot read bag {path}: {err}') from err

@@ -1,0 +1,176 @@
+"""``bag_play``: replay a rosbag2 bag (sqlite3 or mcap) like ``ros2 bag play``.
+
+Messages are published as the bag's raw serialized bytes (no deserialisation), at the
+recorded rate scaled by ``--rate``, optionally looping, filtered with ``--topics`` and
+renamed with ``--remap old:=new``. The publishers offer the QoS recorded in the bag's
+metadata where there is one (reliable, keep last 100 otherwise).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+import rclpy
+from rclpy.duration import Duration
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.time import Time
+from rclpy.utilities import remove_ros_args
+from rosbags.highlevel import AnyReader, AnyReaderError
+from rosbags.rosbag2 import ReaderError
+from rosgraph_msgs.msg import Clock
+
+__all__ = ['BagPlayer', 'main', 'message_class']
+
+_DEFAULT_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST)
+
+
+def message_class(msgtype: str) -> type:
+    """The rclpy message class of a type name like ``sensor_msgs/msg/Image``."""
+    package, kind, name = msgtype.split('/')
+    try:
+        return getattr(importlib.import_module(f'{package}.{kind}'), name)
+    except (ImportError, AttributeError) as err:
+        raise ValueError(f'message type {msgtype} is not available in this ROS installation') from err
+
+
+def _recorded_qos(connection: object) -> QoSProfile:
+    """The first offered QoS profile recorded for a topic, or the default."""
+    profiles = getattr(getattr(connection, 'ext', None), 'offered_qos_profiles', None)
+    if not profiles:
+        return _DEFAULT_QOS
+    recorded = profiles[0]
+    reliability = ReliabilityPolicy.BEST_EFFORT if int(recorded.reliability) == 2 else ReliabilityPolicy.RELIABLE
+    durability = DurabilityPolicy.TRANSIENT_LOCAL if int(recorded.durability) == 1 else DurabilityPolicy.VOLATILE
+    return QoSProfile(depth=max(int(recorded.depth), 100), history=HistoryPolicy.KEEP_LAST, reliability=reliability, durability=durability)
+
+
+def _parse_remaps(remaps: Sequence[str]) -> dict[str, str]:
+    table = {}
+    for remap in remaps:
+        old, sep, new = remap.partition(':=')
+        if not sep or not old or not new:
+            raise ValueError(f'--remap takes old:=new, got {remap!r}')
+        table[old] = new
+    return table
+
+
+class BagPlayer(Node):
+    """Publishes the messages of one bag in recorded order and timing."""
+
+    def __init__(
+        self,
+        bag: Path,
+        *,
+        rate: float = 1.0,
+        topics: Sequence[str] = (),
+        remaps: dict[str, str] | None = None,
+        clock: bool = False,
+    ) -> None:
+        super().__init__('bag_play')
+        if rate <= 0:
+            raise ValueError(f'--rate must be > 0, got {rate}')
+        self.bag = bag
+        self.rate = rate
+        self.reader = AnyReader([bag])
+        self.reader.open()
+        remaps = remaps or {}
+        self.connections = [c for c in self.reader.connections if not topics or c.topic in topics]
+        missing = set(topics) - {c.topic for c in self.reader.connections}
+        if missing:
+            raise ValueError(f'topics not in {bag}: {", ".join(sorted(missing))}')
+        self.publishers_by_id = {}
+        for conn in self.connections:
+            name = remaps.get(conn.topic, conn.topic)
+            self.publishers_by_id[conn.id] = self.create_publisher(message_class(conn.msgtype), name, _recorded_qos(conn))
+        self.clock_pub = self.create_publisher(Clock, '/clock', 10) if clock else None
+        self.published = 0
+
+    def wait_for_subscribers(self, topic: str, count: int, timeout: float) -> bool:
+        """Block until ``topic`` has ``count`` matched subscribers (or ``timeout`` seconds)."""
+        publishers = [pub for pub in self.publishers_by_id.values() if pub.topic_name.lstrip('/') == topic.lstrip('/')]
+        if not publishers:
+            raise ValueError(f'--wait-for-subscribers: no published topic named {topic}')
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if publishers[0].get_subscription_count() >= count:
+                return True
+            time.sleep(0.05)
+        return False
+
+    def play_once(self, start_offset: float = 0.0) -> None:
+        """Publish every selected message once, paced by the recorded timestamps."""
+        start_ns = self.reader.start_time + int(start_offset * 1e9)
+        wall_start = time.monotonic()
+        for conn, timestamp, raw in self.reader.messages(connections=self.connections, start=start_ns):
+            due = wall_start + (timestamp - start_ns) / 1e9 / self.rate
+            delay = due - time.monotonic()
+            if delay > 0:
+                time.sleep(delay)
+            if self.clock_pub is not None:
+                self.clock_pub.publish(Clock(clock=Time(nanoseconds=timestamp).to_msg()))
+            self.publishers_by_id[conn.id].publish(bytes(raw))
+            self.published += 1
+
+    def finish(self, timeout: float = 5.0) -> None:
+        """Wait until reliable subscribers have acknowledged what was sent, then close."""
+        for pub in self.publishers_by_id.values():
+            pub.wait_for_all_acked(Duration(seconds=timeout))
+        self.reader.close()
+
+
+def _arguments(argv: Sequence[str]) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(prog='bag_play', description='Replay a rosbag2 bag (sqlite3 or mcap) over ROS 2.')
+    parser.add_argument('bag', type=Path, help='bag folder (or its .mcap / .db3 file)')
+    parser.add_argument('-r', '--rate', type=float, default=1.0, help='playback rate factor (default 1.0)')
+    parser.add_argument('-l', '--loop', action='store_true', help='replay until interrupted')
+    parser.add_argument('--topics', nargs='+', default=[], help='only these topics')
+    parser.add_argument('--remap', '-m', nargs='+', default=[], metavar='OLD:=NEW', help='rename topics')
+    parser.add_argument('--clock', action='store_true', help='publish /clock from the bag time')
+    parser.add_argument('--start-offset', type=float, default=0.0, help='seconds into the bag to start at')
+    parser.add_argument('-d', '--delay', type=float, default=0.0, help='seconds to wait before playing')
+    parser.add_argument('--wait-for-subscribers', nargs=2, metavar=('TOPIC', 'COUNT'), help='wait until TOPIC has COUNT subscribers (timeout 30 s)')
+    return parser.parse_args(argv)
+
+
+def main(args: list[str] | None = None) -> int:
+    """Entry point of ``ros2 run human_tracker bag_play BAG``; returns the exit code."""
+    argv = sys.argv if args is None else args
+    rclpy.init(args=argv)
+    options = _arguments(remove_ros_args(argv)[1:])
+    player = None
+    bag = options.bag.parent if options.bag.is_file() else options.bag
+    code = 0
+    try:
+        player = BagPlayer(bag, rate=options.rate, topics=options.topics, remaps=_parse_remaps(options.remap), clock=options.clock)
+        if options.wait_for_subscribers:
+            topic, count = options.wait_for_subscribers
+            if not player.wait_for_subscribers(topic, int(count), 30.0):
+                player.get_logger().warn(f'playing although {topic} has fewer than {count} subscribers after 30 s')
+        time.sleep(max(options.delay, 0.0))
+        while True:
+            player.play_once(options.start_offset)
+            if not options.loop:
+                break
+        player.finish()
+        player.get_logger().info(f'played {player.published} messages from {bag}')
+    except (AnyReaderError, ReaderError, ValueError, OSError) as err:
+        print(f'bag_play: error: {err}', file=sys.stderr)
+        code = 1
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if player is not None:
+            player.destroy_node()
+        rclpy.try_shutdown()
+    return code
+
+
+if __name__ == '__main__':
+    sys.exit(main())

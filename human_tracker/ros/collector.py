@@ -1,0 +1,49 @@
+"""A node that records what a tracker publishes, keyed by image stamp (for demo and tests)."""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+from geometry_msgs.msg import PolygonStamped, PoseWithCovarianceStamped
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+__all__ = ['PoseCollector']
+
+_KEEP_ALL = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST)
+
+
+def _stamp_ns(header: Any) -> int:
+    return int(header.stamp.sec) * 1_000_000_000 + int(header.stamp.nanosec)
+
+
+class PoseCollector(Node):
+    """Subscribes ``pose`` and ``contour`` (reliable, deep queue) and stores them by stamp."""
+
+    def __init__(self, namespace: str = '') -> None:
+        super().__init__('pose_collector', namespace=namespace)
+        self.poses: dict[int, PoseWithCovarianceStamped] = {}
+        self.contours: dict[int, np.ndarray] = {}
+        self.frame_ids: set[str] = set()
+        self.create_subscription(PoseWithCovarianceStamped, 'pose', self._on_pose, _KEEP_ALL)
+        self.create_subscription(PolygonStamped, 'contour', self._on_contour, _KEEP_ALL)
+
+    def _on_pose(self, msg: PoseWithCovarianceStamped) -> None:
+        self.poses[_stamp_ns(msg.header)] = msg
+        self.frame_ids.add(msg.header.frame_id)
+
+    def _on_contour(self, msg: PolygonStamped) -> None:
+        self.contours[_stamp_ns(msg.header)] = np.array([[p.x, p.y] for p in msg.polygon.points], dtype=np.float64)
+
+    def wait_for_publisher(self, executor: SingleThreadedExecutor, timeout: float) -> bool:
+        """Spin until a node publishes ``pose`` (so no early pose is missed)."""
+        deadline = time.monotonic() + timeout
+        topic = self.resolve_topic_name('pose')
+        while time.monotonic() < deadline:
+            if self.count_publishers(topic) > 0:
+                return True
+            executor.spin_once(timeout_sec=0.05)
+        return False

@@ -1,0 +1,154 @@
+"""What every node shares: declared parameters with ranges, QoS from parameters, frame
+accounting and diagnostics."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rclpy.node import Node
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+
+__all__ = [
+    'declare',
+    'image_qos',
+    'RESULT_QOS',
+    'FrameCounters',
+    'StageTimer',
+    'diagnostic_status',
+    'publish_diagnostics',
+]
+
+RESULT_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST)
+"""Results (poses, masks, contours) are published reliably."""
+
+
+def declare(
+    node: Node,
+    name: str,
+    default: Any,
+    description: str,
+    *,
+    low: float | None = None,
+    high: float | None = None,
+    read_only: bool = False,
+) -> Any:
+    """Declare a parameter with its description and, for numbers, its allowed range."""
+    descriptor = ParameterDescriptor(description=description, read_only=read_only)
+    if low is not None and high is not None:
+        if isinstance(default, bool):
+            pass
+        elif isinstance(default, int):
+            descriptor.integer_range = [IntegerRange(from_value=int(low), to_value=int(high), step=0)]
+        elif isinstance(default, float):
+            descriptor.floating_point_range = [FloatingPointRange(from_value=float(low), to_value=float(high), step=0.0)]
+    return node.declare_parameter(name, default, descriptor).value
+
+
+def image_qos(node: Node) -> QoSProfile:
+    """Image subscription QoS: sensor data (best effort, newest frame) unless overridden.
+
+    Parameters ``qos_reliability`` (``best_effort`` | ``reliable``) and ``qos_depth`` let a
+    bag replay that must not lose a frame ask for reliable delivery and a deeper queue.
+    """
+    reliability = declare(node, 'qos_reliability', 'best_effort', 'Image subscription reliability: best_effort or reliable.', read_only=True)
+    depth = declare(node, 'qos_depth', 1, 'Image subscription queue depth (1: always the newest frame).', low=1, high=1000, read_only=True)
+    if reliability not in ('best_effort', 'reliable'):
+        raise ValueError(f"qos_reliability must be 'best_effort' or 'reliable', got {reliability!r}")
+    profile = QoSProfile(
+        depth=int(depth),
+        history=HistoryPolicy.KEEP_LAST,
+        reliability=ReliabilityPolicy.RELIABLE if reliability == 'reliable' else ReliabilityPolicy.BEST_EFFORT,
+        durability=qos_profile_sensor_data.durability,
+    )
+    return profile
+
+
+@dataclass
+class FrameCounters:
+    """Where every input frame went: each one is processed, skipped or rejected."""
+
+    received: int = 0
+    processed: int = 0
+    skipped: int = 0
+    rejected: int = 0
+    rejected_reasons: dict[str, int] = field(default_factory=dict)
+
+    def reject(self, reason: str) -> None:
+        """Count a frame that could not be used, by reason."""
+        self.rejected += 1
+        self.rejected_reasons[reason] = self.rejected_reasons.get(reason, 0) + 1
+
+    def as_dict(self) -> dict[str, int]:
+        """Counters as a flat dictionary."""
+        return {'received': self.received, 'processed': self.processed, 'skipped': self.skipped, 'rejected': self.rejected}
+
+
+@dataclass
+class StageTimer:
+    """Running mean of processing time and input rate over a window of frames."""
+
+    window: int = 30
+    durations: list[float] = field(default_factory=list)
+    arrivals: list[float] = field(default_factory=list)
+
+    def arrived(self) -> None:
+        """Note the arrival time of an input frame."""
+        self.arrivals.append(time.monotonic())
+        del self.arrivals[: -self.window]
+
+    def took(self, seconds: float) -> None:
+        """Note how long one frame took to process."""
+        self.durations.append(seconds)
+        del self.durations[: -self.window]
+
+    @property
+    def mean_ms(self) -> float:
+        """Mean processing time, milliseconds."""
+        return 1000.0 * sum(self.durations) / len(self.durations) if self.durations else 0.0
+
+    @property
+    def rate_hz(self) -> float:
+        """Input frame rate, Hz."""
+        if len(self.arrivals) < 2 or self.arrivals[-1] == self.arrivals[0]:
+            return 0.0
+        return (len(self.arrivals) - 1) / (self.arrivals[-1] - self.arrivals[0])
+
+
+def diagnostic_status(
+    node: Node,
+    counters: FrameCounters,
+    timer: StageTimer,
+    *,
+    state: str,
+    level: bytes | None = None,
+    extra: dict[str, Any] | None = None,
+) -> DiagnosticStatus:
+    """A DiagnosticStatus with the node's frame accounting, timing and state."""
+    if level is None:
+        level = DiagnosticStatus.OK if state in ('TRACKING', 'OK') else DiagnosticStatus.WARN
+    values = {
+        'state': state,
+        'input_rate_hz': f'{timer.rate_hz:.2f}',
+        'processing_ms': f'{timer.mean_ms:.2f}',
+        **{f'frames_{k}': str(v) for k, v in counters.as_dict().items()},
+        **{f'rejected_{k}': str(v) for k, v in counters.rejected_reasons.items()},
+        **{k: str(v) for k, v in (extra or {}).items()},
+    }
+    return DiagnosticStatus(
+        level=level,
+        name=f'{node.get_fully_qualified_name()}',
+        message=state,
+        hardware_id='camera',
+        values=[KeyValue(key=k, value=v) for k, v in values.items()],
+    )
+
+
+def publish_diagnostics(node: Node, publisher: Any, statuses: list[DiagnosticStatus]) -> None:
+    """Publish statuses on /diagnostics stamped now."""
+    array_ = DiagnosticArray(status=statuses)
+    array_.header.stamp = node.get_clock().now().to_msg()
+    publisher.publish(array_)

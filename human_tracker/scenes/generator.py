@@ -1,0 +1,225 @@
+"""Seeded synthetic camera scenes with ground truth, for tests, demos and benchmarks.
+
+A scene is a static camera looking at a textured, cluttered room in which a person's head
+and shoulders move (translation, scale change, rotation). The person is drawn from
+primitives (an ellipse for the head, a polygon for neck and shoulders), not from the
+tracker's template, so the template only approximates the silhouette, as on real video.
+Everything random comes from one seeded generator: the same spec gives the same frames.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+__all__ = ['SceneSpec', 'SceneFrame', 'render_scene', 'SCENES']
+
+_HEAD_HALF_WIDTH = 0.5
+_HEAD_HALF_HEIGHT = 0.62
+# Neck and shoulders below a head one unit wide, centred on the origin (x right, y down).
+_BODY = np.array(
+    [
+        [-0.26, 0.45], [0.26, 0.45], [0.32, 0.86], [1.0, 0.98], [1.45, 1.25], [1.7, 1.7],
+        [1.85, 8.0], [-1.85, 8.0], [-1.7, 1.7], [-1.45, 1.25], [-1.0, 0.98], [-0.32, 0.86],
+    ],
+)
+
+
+@dataclass(frozen=True)
+class SceneSpec:
+    """What a synthetic scene looks like and how the person moves.
+
+    Attributes:
+        name: Scene name (the bag is named after it).
+        width: Image width, pixels.
+        height: Image height, pixels.
+        num_frames: Number of frames.
+        fps: Frame rate, Hz (sets the stamps).
+        seed: Seed of every random draw of the scene.
+        head_width: Mean head width, pixels (the tracker's scale s).
+        clutter: Number of random shapes drawn on the background.
+        head_like_clutter: Number of static head-and-shoulders-like outlines in the background.
+        noise_sigma: Standard deviation of the additive camera noise, grey levels.
+        lighting_drift: Peak relative change of the global illumination over the scene.
+        amplitude: Horizontal and vertical amplitude of the motion, as fractions of the size.
+        scale_change: Peak relative change of the head size (moving to and from the camera).
+        max_rotation: Peak in-plane rotation θ, radians.
+        pauses: Frame ranges ``[start, end)`` in which the person stands still.
+        absent: Frame ranges ``[start, end)`` in which the person is out of view.
+    """
+
+    name: str
+    width: int = 640
+    height: int = 480
+    num_frames: int = 150
+    fps: float = 30.0
+    seed: int = 1
+    head_width: float = 70.0
+    clutter: int = 40
+    head_like_clutter: int = 0
+    noise_sigma: float = 3.0
+    lighting_drift: float = 0.0
+    amplitude: tuple[float, float] = (0.28, 0.06)
+    scale_change: float = 0.15
+    max_rotation: float = 0.15
+    pauses: tuple[tuple[int, int], ...] = ()
+    absent: tuple[tuple[int, int], ...] = ()
+
+
+@dataclass
+class SceneFrame:
+    """One rendered frame and its ground truth.
+
+    Attributes:
+        index: Frame index from 0.
+        stamp_ns: Time stamp, nanoseconds.
+        image: ``(H, W, 3) uint8`` BGR image.
+        visible: Whether the person is in view.
+        state: ``(4,)`` true [x, y, s, θ] of the head (centre pixels, width pixels, radians).
+        head_box: ``(x, y, w, h)`` pixels, axis-aligned box of the head, or None when absent.
+    """
+
+    index: int
+    stamp_ns: int
+    image: np.ndarray
+    visible: bool
+    state: np.ndarray
+    head_box: tuple[float, float, float, float] | None = field(default=None)
+
+
+# Scenes first recorded at this time, so stamps are realistic and identical run to run.
+_EPOCH_NS = 1_767_225_600 * 1_000_000_000
+
+
+def _in_ranges(index: int, ranges: tuple[tuple[int, int], ...]) -> bool:
+    return any(start <= index < end for start, end in ranges)
+
+
+def _background(spec: SceneSpec, rng: np.random.Generator) -> np.ndarray:
+    """Textured room: smooth colour gradients, random shapes and optional head-like decoys."""
+    h, w = spec.height, spec.width
+    coarse = rng.uniform(60, 200, size=(6, 8, 3)).astype(np.float32)
+    image = cv2.resize(coarse, (w, h), interpolation=cv2.INTER_CUBIC)
+    fine = rng.normal(0, 8, size=(h // 4, w // 4, 3)).astype(np.float32)
+    image += cv2.resize(fine, (w, h), interpolation=cv2.INTER_LINEAR)
+    image = np.clip(image, 0, 255).astype(np.uint8)
+    for _ in range(spec.clutter):
+        colour = tuple(int(c) for c in rng.integers(20, 236, size=3))
+        kind = rng.integers(0, 3)
+        x, y = int(rng.integers(0, w)), int(rng.integers(0, h))
+        size = int(rng.integers(10, 90))
+        if kind == 0:
+            cv2.rectangle(image, (x, y), (x + size, y + int(rng.integers(10, 90))), colour, -1, cv2.LINE_AA)
+        elif kind == 1:
+            axes = (size // 2 + 3, int(rng.integers(5, 45)))
+            cv2.ellipse(image, (x, y), axes, float(rng.uniform(0, 180)), 0, 360, colour, -1, cv2.LINE_AA)
+        else:
+            end = (x + int(rng.integers(-120, 120)), y + int(rng.integers(-120, 120)))
+            cv2.line(image, (x, y), end, colour, int(rng.integers(2, 6)), cv2.LINE_AA)
+    for _ in range(spec.head_like_clutter):
+        decoy = np.array(
+            [rng.uniform(0.15, 0.85) * w, rng.uniform(0.2, 0.6) * h, spec.head_width * rng.uniform(0.8, 1.2), 0.0]
+        )
+        _draw_person(image, decoy, rng.integers(30, 226, size=3), rng.integers(30, 226, size=3), 1.0)
+    return image
+
+
+def _head_polygon(state: np.ndarray) -> np.ndarray:
+    x, y, s, theta = state
+    axes = (max(1, int(round(_HEAD_HALF_WIDTH * s))), max(1, int(round(_HEAD_HALF_HEIGHT * s))))
+    return cv2.ellipse2Poly((int(round(x)), int(round(y))), axes, int(round(np.degrees(theta))), 0, 360, 5)
+
+
+def _to_image(points: np.ndarray, state: np.ndarray) -> np.ndarray:
+    x, y, s, theta = state
+    c, si = np.cos(theta), np.sin(theta)
+    rot = np.array([[c, -si], [si, c]])
+    return points @ rot.T * s + np.array([x, y])
+
+
+def _draw_person(
+    image: np.ndarray,
+    state: np.ndarray,
+    skin: np.ndarray,
+    shirt: np.ndarray,
+    gain: float,
+) -> None:
+    """Draw neck and shoulders, then the head with hair and face features, at ``state``."""
+    s = state[2]
+    body = np.round(_to_image(_BODY, state)).astype(np.int32)
+    cv2.fillPoly(image, [body], tuple(float(c) * gain for c in shirt), cv2.LINE_AA)
+    head = _head_polygon(state)
+    cv2.fillPoly(image, [head], tuple(float(c) * gain for c in skin), cv2.LINE_AA)
+    hair_colour = (30 * gain, 35 * gain, 45 * gain)
+    x, y, _, theta = state
+    cv2.ellipse(
+        image,
+        (int(round(x)), int(round(y))),
+        (int(round(_HEAD_HALF_WIDTH * s)), int(round(_HEAD_HALF_HEIGHT * s))),
+        float(np.degrees(theta)),
+        195,
+        345,
+        hair_colour,
+        -1,
+        cv2.LINE_AA,
+    )
+    features = _to_image(np.array([[-0.18, -0.05], [0.18, -0.05], [0.0, 0.3]]), state)
+    dark = (40 * gain, 40 * gain, 60 * gain)
+    for fx, fy in features[:2]:
+        cv2.circle(image, (int(round(fx)), int(round(fy))), max(1, int(s * 0.05)), dark, -1, cv2.LINE_AA)
+    mx, my = features[2]
+    cv2.ellipse(image, (int(round(mx)), int(round(my))), (max(1, int(s * 0.14)), max(1, int(s * 0.04))),
+                float(np.degrees(theta)), 0, 360, dark, -1, cv2.LINE_AA)
+
+
+def _trajectory(spec: SceneSpec, motion_time: float) -> np.ndarray:
+    """True head state after ``motion_time`` seconds of motion (time stops during pauses)."""
+    t = motion_time
+    cx = spec.width * (0.5 + spec.amplitude[0] * np.sin(2 * np.pi * t / 5.0))
+    cy = spec.height * (0.38 + spec.amplitude[1] * np.sin(2 * np.pi * t / 2.3 + 0.7))
+    s = spec.head_width * (1.0 + spec.scale_change * np.sin(2 * np.pi * t / 4.1 + 1.3))
+    theta = spec.max_rotation * np.sin(2 * np.pi * t / 3.3)
+    return np.array([cx, cy, s, theta])
+
+
+def _head_box(state: np.ndarray) -> tuple[float, float, float, float]:
+    poly = _head_polygon(state)
+    x0, y0 = poly.min(axis=0)
+    x1, y1 = poly.max(axis=0)
+    return float(x0), float(y0), float(x1 - x0), float(y1 - y0)
+
+
+def render_scene(spec: SceneSpec) -> Iterator[SceneFrame]:
+    """Render the frames of ``spec`` in order; deterministic for a given spec."""
+    rng = np.random.default_rng(spec.seed)
+    background = _background(spec, rng)
+    skin = np.array([95.0, 135.0, 200.0]) + rng.uniform(-15, 15, size=3)
+    shirt = rng.uniform(40, 200, size=3)
+    noise_rng = np.random.default_rng(spec.seed + 1)
+    motion_time = 0.0
+    for index in range(spec.num_frames):
+        if index > 0 and not _in_ranges(index, spec.pauses):
+            motion_time += 1.0 / spec.fps
+        state = _trajectory(spec, motion_time)
+        visible = not _in_ranges(index, spec.absent)
+        # Lighting drifts on the whole scene, person included, as a slow gain change.
+        gain = 1.0 + spec.lighting_drift * np.sin(2 * np.pi * index / max(spec.num_frames, 1))
+        frame = np.clip(background.astype(np.float32) * gain, 0, 255).astype(np.uint8)
+        if visible:
+            _draw_person(frame, state, skin, shirt, gain)
+        noisy = frame.astype(np.float32) + noise_rng.normal(0, spec.noise_sigma, size=frame.shape)
+        image = np.clip(noisy, 0, 255).astype(np.uint8)
+        stamp_ns = _EPOCH_NS + int(round(index * 1e9 / spec.fps))
+        yield SceneFrame(index, stamp_ns, image, visible, state, _head_box(state) if visible else None)
+
+
+SCENES: dict[str, SceneSpec] = {
+    spec.name: spec
+    for spec in (
+        SceneSpec(name='head_basic', seed=1, num_frames=120, clutter=60, noise_sigma=2.0),
+    )
+}
+"""The scenes whose bags ship in ``bags/``, by name."""

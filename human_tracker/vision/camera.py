@@ -1,0 +1,57 @@
+"""Pinhole camera: the target's metric position from its image position and scale.
+
+With intrinsics K (fx, fy, cx, cy, pixels) and the reference region's physical width W
+(metres), a state whose reference region is ``w = s * template_width`` pixels wide lies at
+depth ``Z = fx W / w``; its centre pixel (u, v) back-projects to
+``X = (u - cx) Z / fx``, ``Y = (v - cy) Z / fy`` in the optical frame (x right, y down,
+z forward).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from human_tracker.vision.templates import ContourTemplate
+
+__all__ = ['DEFAULT_HORIZONTAL_FOV', 'default_camera_matrix', 'metric_positions']
+
+DEFAULT_HORIZONTAL_FOV = np.deg2rad(60.0)
+"""Field of view assumed when no camera_info arrives: 60°, typical of a robot's RGB camera."""
+
+
+def default_camera_matrix(width: int, height: int, horizontal_fov: float = DEFAULT_HORIZONTAL_FOV) -> np.ndarray:
+    """``(3, 3)`` K of an ideal pinhole camera with square pixels and the centre mid-image."""
+    focal = width / (2.0 * np.tan(horizontal_fov / 2.0))
+    return np.array([[focal, 0.0, (width - 1) / 2.0], [0.0, focal, (height - 1) / 2.0], [0.0, 0.0, 1.0]])
+
+
+def metric_positions(
+    states: np.ndarray,
+    template: ContourTemplate,
+    camera_matrix: np.ndarray,
+    target_width: float,
+) -> np.ndarray:
+    """Optical-frame positions (metres) of the reference-region centres of ``states``.
+
+    Args:
+        states: ``(P, 4)`` or ``(4,)`` states [x, y, s, θ].
+        template: The template (its reference box sets what ``target_width`` measures).
+        camera_matrix: ``(3, 3)`` intrinsics K.
+        target_width: Physical width of the reference region (head or hand), metres.
+
+    Returns:
+        ``(P, 3)`` or ``(3,)`` positions X, Y, Z in metres.
+    """
+    states = np.asarray(states, dtype=np.float64)
+    single = states.ndim == 1
+    states = np.atleast_2d(states)
+    rx, ry, rw, rh = template.reference_box
+    centre = np.array([rx + rw / 2.0, ry + rh / 2.0])
+    cos, sin = np.cos(states[:, 3]), np.sin(states[:, 3])
+    u = states[:, 0] + states[:, 2] * (cos * centre[0] - sin * centre[1])
+    v = states[:, 1] + states[:, 2] * (sin * centre[0] + cos * centre[1])
+    fx, fy = camera_matrix[0, 0], camera_matrix[1, 1]
+    cx, cy = camera_matrix[0, 2], camera_matrix[1, 2]
+    depth = fx * target_width / np.maximum(states[:, 2] * rw, 1e-6)
+    positions = np.stack([(u - cx) * depth / fx, (v - cy) * depth / fy, depth], axis=1)
+    return positions[0] if single else positions

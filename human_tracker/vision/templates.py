@@ -1,0 +1,197 @@
+"""Contour templates: the spline silhouettes of the paper's Fig. 1 (§2.1, §2.3).
+
+A template lives in its own unit frame: x right, y down, origin at the centre of the
+target's reference region (the head for the head-and-shoulders template), and the
+reference region one unit wide. A particle's scale ``s`` is therefore the width of the
+reference region in pixels, and the state ``[x, y, s, θ]`` maps template point ``p`` to
+the image point ``(x, y) + s R(θ) p``.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy.interpolate import splev, splprep
+
+__all__ = [
+    'ContourTemplate',
+    'head_and_shoulders',
+    'template_from_control_points',
+    'load_template',
+    'make_template',
+    'TARGETS',
+    'transform_points',
+    'fit_state',
+]
+
+# Head-and-shoulders outline, left shoulder to right shoulder over the top of the head.
+# Unit frame: head 1 wide, ~1.25 high, centred on the origin.
+_HEAD_AND_SHOULDERS = np.array(
+    [
+        [-1.75, 1.95],
+        [-1.55, 1.35],
+        [-1.05, 1.02],
+        [-0.42, 0.88],
+        [-0.30, 0.62],
+        [-0.46, 0.25],
+        [-0.50, -0.10],
+        [-0.36, -0.48],
+        [0.00, -0.63],
+        [0.36, -0.48],
+        [0.50, -0.10],
+        [0.46, 0.25],
+        [0.30, 0.62],
+        [0.42, 0.88],
+        [1.05, 1.02],
+        [1.55, 1.35],
+        [1.75, 1.95],
+    ],
+)
+_HEAD_BOX = (-0.5, -0.63, 1.0, 1.25)
+
+
+@dataclass(frozen=True)
+class ContourTemplate:
+    """A silhouette sampled at measurement points (§2.3: points uniform along the spline).
+
+    Attributes:
+        name: Short name (``head``, ``hand``, or a file stem).
+        points: ``(N, 2) float64``, template units, the measurement points ``x(j)``.
+        normals: ``(N, 2) float64``, unit normals at the points (pointing outwards).
+        reference_box: ``(x, y, w, h)`` of the reference region in template units; the
+            tracker reports this box, so it compares with head / hand ground truth.
+        closed: Whether the spline is a closed curve.
+    """
+
+    name: str
+    points: np.ndarray
+    normals: np.ndarray
+    reference_box: tuple[float, float, float, float]
+    closed: bool = False
+
+    @property
+    def num_points(self) -> int:
+        """Number of measurement points N."""
+        return int(self.points.shape[0])
+
+
+def template_from_control_points(
+    control_points: np.ndarray,
+    num_points: int,
+    reference_box: tuple[float, float, float, float],
+    *,
+    name: str = 'custom',
+    closed: bool = False,
+) -> ContourTemplate:
+    """Fit a cubic spline through control points and sample it uniformly by arc length.
+
+    Args:
+        control_points: ``(M, 2)`` points the spline passes through, template units.
+        num_points: N, the number of measurement points to sample (>= 4).
+        reference_box: ``(x, y, w, h)`` of the reference region, template units.
+        name: Name of the template.
+        closed: Treat the curve as closed (periodic spline).
+
+    Returns:
+        The sampled template with outward unit normals.
+    """
+    control = np.asarray(control_points, dtype=np.float64)
+    if control.ndim != 2 or control.shape[1] != 2 or control.shape[0] < 4:
+        raise ValueError(f'control_points must be (M>=4, 2), got shape {control.shape}')
+    if num_points < 4:
+        raise ValueError(f'num_points must be >= 4, got {num_points}')
+    if closed and not np.allclose(control[0], control[-1]):
+        control = np.vstack([control, control[:1]])
+    tck, _ = splprep(control.T, s=0.0, per=int(closed), k=3)
+    dense = np.linspace(0.0, 1.0, 4000)
+    xy = np.stack(splev(dense, tck), axis=1)
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(xy, axis=0), axis=1))])
+    # Uniform in arc length, as the paper asks; a closed curve must not repeat its start.
+    targets = np.linspace(0.0, arc[-1], num_points, endpoint=not closed)
+    u = np.interp(targets, arc, dense)
+    points = np.stack(splev(u, tck), axis=1)
+    tangents = np.stack(splev(u, tck, der=1), axis=1)
+    tangents /= np.linalg.norm(tangents, axis=1, keepdims=True)
+    normals = np.stack([tangents[:, 1], -tangents[:, 0]], axis=1)
+    # Orient normals away from the reference region's centre so "outwards" is well defined.
+    box_centre = np.array([reference_box[0] + reference_box[2] / 2, reference_box[1] + reference_box[3] / 2])
+    flip = np.einsum('ij,ij->i', normals, points - box_centre) < 0
+    if np.count_nonzero(flip) > num_points // 2:
+        normals = -normals
+    return ContourTemplate(name, points, normals, tuple(float(v) for v in reference_box), closed)
+
+
+def head_and_shoulders(num_points: int = 48) -> ContourTemplate:
+    """The head-and-shoulders template of Fig. 1 (an open spline), head one unit wide."""
+    return template_from_control_points(_HEAD_AND_SHOULDERS, num_points, _HEAD_BOX, name='head')
+
+
+def load_template(path: str | Path, num_points: int = 48) -> ContourTemplate:
+    """Load a template from a JSON file.
+
+    The file holds ``{"control_points": [[x, y], ...], "reference_box": [x, y, w, h],
+    "closed": false}`` in template units (reference region about one unit wide).
+
+    Raises:
+        ValueError: The file is missing, unreadable or malformed; the message says which.
+    """
+    path = Path(path)
+    try:
+        spec = json.loads(path.read_text())
+        control = np.asarray(spec['control_points'], dtype=np.float64)
+        box = tuple(float(v) for v in spec['reference_box'])
+        closed = bool(spec.get('closed', False))
+    except (OSError, ValueError, KeyError, TypeError) as err:
+        raise ValueError(f'cannot load template {path}: {err}') from err
+    if len(box) != 4 or box[2] <= 0 or box[3] <= 0:
+        raise ValueError(f'template {path}: reference_box must be [x, y, w>0, h>0], got {box}')
+    return template_from_control_points(control, num_points, box, name=path.stem, closed=closed)
+
+
+def transform_points(points: np.ndarray, state: np.ndarray) -> np.ndarray:
+    """Map template points into the image for one state ``[x, y, s, θ]``.
+
+    Args:
+        points: ``(N, 2)`` template units.
+        state: ``(4,)`` x, y in pixels, s in pixels per unit, θ in radians.
+
+    Returns:
+        ``(N, 2) float64`` image points in pixels.
+    """
+    x, y, s, theta = (float(v) for v in state[:4])
+    c, si = np.cos(theta), np.sin(theta)
+    rot = np.array([[c, -si], [si, c]])
+    return points @ rot.T * s + np.array([x, y])
+
+
+TARGETS = {'head': head_and_shoulders}
+"""Built-in templates by target name."""
+
+
+def make_template(target: str, num_points: int = 48, template_file: str | Path = '') -> ContourTemplate:
+    """The template for ``target``, or the one in ``template_file`` when given.
+
+    Raises:
+        ValueError: Unknown target, or a template file that cannot be loaded.
+    """
+    if template_file:
+        return load_template(template_file, num_points)
+    if target not in TARGETS:
+        raise ValueError(f'unknown target {target!r}; known: {", ".join(sorted(TARGETS))} (or give a template file)')
+    return TARGETS[target](num_points)
+
+
+def fit_state(template_points: np.ndarray, image_points: np.ndarray) -> np.ndarray:
+    """The state [x, y, s, θ] mapping template points onto image points (least squares).
+
+    The inverse of :func:`transform_points`: recovers the state from a published contour.
+    """
+    p = template_points[:, 0] + 1j * template_points[:, 1]
+    q = image_points[:, 0] + 1j * image_points[:, 1]
+    pc, qc = p - p.mean(), q - q.mean()
+    a = np.vdot(pc, qc) / np.vdot(pc, pc).real
+    b = q.mean() - a * p.mean()
+    return np.array([b.real, b.imag, abs(a), np.angle(a)])

@@ -1,0 +1,204 @@
+"""The contour tracker: one predict-weigh-resample cycle of §2 per frame."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from human_tracker.vision.dynamics import predict
+from human_tracker.vision.measurement import contour_costs, log_likelihood, normalised_weights
+from human_tracker.vision.particle_filter import (
+    effective_sample_size,
+    gaussian_cloud,
+    systematic_resample,
+    weighted_covariance,
+    weighted_estimate,
+)
+from human_tracker.vision.templates import ContourTemplate, transform_points
+
+__all__ = ['TrackerParameters', 'TrackEstimate', 'ContourTracker', 'state_from_box', 'box_from_state']
+
+
+@dataclass
+class TrackerParameters:
+    """The filter's constants; names in words, the paper's symbol in brackets.
+
+    Attributes:
+        num_particles: P, number of particles.
+        search_halfwidth: δ in eq. 2, pixels searched each side of a point on its normal.
+        miss_penalty: ρ in eqs. 2-3, cost of a point with no edge within δ.
+        likelihood_gain: K in eq. 1.
+        orientation_tolerance: Largest angle (radians) between an edge's gradient and the
+            contour normal for the edge to count as z(j); π/2 accepts any edge (the paper).
+        velocity_damping: a in the AR(2) matrix A (§2.2), in [0, 1].
+        process_noise: W of §2.2: std of x, y (pixels), s (fraction), θ (radians).
+        initial_spread: diagonal of Σ of §2.5, same units as process_noise.
+        seed: Seed of the filter's random generator (a replay is then reproducible).
+    """
+
+    num_particles: int = 500
+    search_halfwidth: float = 12.0
+    miss_penalty: float = 144.0
+    likelihood_gain: float = 0.01
+    orientation_tolerance: float = 0.5
+    velocity_damping: float = 0.6
+    process_noise: tuple[float, float, float, float] = (5.0, 5.0, 0.01, 0.02)
+    initial_spread: tuple[float, float, float, float] = (8.0, 8.0, 0.08, 0.08)
+    seed: int = 0
+
+    def validate(self) -> None:
+        """Raise ValueError naming the first parameter out of its range."""
+        checks = [
+            (self.num_particles >= 1, f'num_particles must be >= 1, got {self.num_particles}'),
+            (self.search_halfwidth > 0, f'search_halfwidth (δ) must be > 0, got {self.search_halfwidth}'),
+            (self.miss_penalty >= 0, f'miss_penalty (ρ) must be >= 0, got {self.miss_penalty}'),
+            (0 < self.orientation_tolerance <= np.pi / 2, f'orientation_tolerance must be in (0, π/2], got {self.orientation_tolerance}'),
+            (self.likelihood_gain > 0, f'likelihood_gain (K) must be > 0, got {self.likelihood_gain}'),
+            (0.0 <= self.velocity_damping <= 1.0, f'velocity_damping must be in [0, 1], got {self.velocity_damping}'),
+            (len(self.process_noise) == 4 and min(self.process_noise) >= 0, f'process_noise must be 4 values >= 0, got {self.process_noise}'),
+            (len(self.initial_spread) == 4 and min(self.initial_spread) >= 0, f'initial_spread must be 4 values >= 0, got {self.initial_spread}'),
+        ]
+        for ok, message in checks:
+            if not ok:
+                raise ValueError(message)
+
+
+@dataclass
+class TrackEstimate:
+    """What the tracker knows after one frame.
+
+    Attributes:
+        state: ``(4,)`` weighted mean [x, y, s, θ] (pixels, pixels/unit, radians).
+        covariance: ``(4, 4)`` weighted covariance of the particle cloud.
+        confidence: Weighted fraction of measurement points that found an edge, in [0, 1].
+        effective_sample_size: 1 / Σ w² before resampling, in [1, P].
+        box: ``(x, y, w, h)`` pixels, bounding box of the template's reference region.
+        contour: ``(N, 2)`` image points of the template at ``state``.
+    """
+
+    state: np.ndarray
+    covariance: np.ndarray
+    confidence: float
+    effective_sample_size: float
+    box: tuple[float, float, float, float]
+    contour: np.ndarray
+
+
+def state_from_box(box: tuple[float, float, float, float], template: ContourTemplate) -> np.ndarray:
+    """State [x, y, s, 0] whose reference region fills ``box`` = (x, y, w, h) pixels."""
+    bx, by, bw, bh = (float(v) for v in box)
+    if bw <= 0 or bh <= 0:
+        raise ValueError(f'box width and height must be > 0, got {box}')
+    rx, ry, rw, rh = template.reference_box
+    scale = 0.5 * (bw / rw + bh / rh)
+    cx = bx + bw / 2 - scale * (rx + rw / 2)
+    cy = by + bh / 2 - scale * (ry + rh / 2)
+    return np.array([cx, cy, scale, 0.0])
+
+
+def box_from_state(state: np.ndarray, template: ContourTemplate) -> tuple[float, float, float, float]:
+    """Axis-aligned bounding box (x, y, w, h) in pixels of the rotated reference region."""
+    rx, ry, rw, rh = template.reference_box
+    corners = np.array([[rx, ry], [rx + rw, ry], [rx + rw, ry + rh], [rx, ry + rh]])
+    image = transform_points(corners, state)
+    lo = image.min(axis=0)
+    hi = image.max(axis=0)
+    return float(lo[0]), float(lo[1]), float(hi[0] - lo[0]), float(hi[1] - lo[1])
+
+
+@dataclass
+class ContourTracker:
+    """Particle filter over [x, y, s, θ] fitting a contour template to image edges.
+
+    The fields are the filter's whole state; ``step`` runs §2.2 (predict), §2.3-2.4 (weigh)
+    and resampling on one frame.
+    """
+
+    template: ContourTemplate
+    parameters: TrackerParameters = field(default_factory=TrackerParameters)
+    particles: np.ndarray | None = None
+    previous: np.ndarray | None = None
+    rng: np.random.Generator = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.parameters.validate()
+        self.rng = np.random.default_rng(self.parameters.seed)
+
+    @property
+    def initialised(self) -> bool:
+        """Whether the filter has a particle cloud."""
+        return self.particles is not None
+
+    def initialise(self, state: np.ndarray) -> None:
+        """Spread the particles around X_0 = ``state`` with covariance Σ (§2.5)."""
+        self.particles = gaussian_cloud(
+            np.asarray(state, dtype=np.float64),
+            np.asarray(self.parameters.initial_spread),
+            self.parameters.num_particles,
+            self.rng,
+        )
+        self.previous = self.particles.copy()
+
+    def initialise_from_box(self, box: tuple[float, float, float, float]) -> None:
+        """Initialise on the reference region (head or hand) filling ``box`` (x, y, w, h)."""
+        self.initialise(state_from_box(box, self.template))
+
+    def reset(self) -> None:
+        """Forget the target; the next ``initialise`` starts afresh with the same seed."""
+        self.particles = None
+        self.previous = None
+        self.rng = np.random.default_rng(self.parameters.seed)
+
+    def step(self, edges: np.ndarray, motion: np.ndarray | None = None) -> TrackEstimate:
+        """Predict, weigh against ``edges`` (and ``motion``), estimate, resample.
+
+        Args:
+            edges: ``(H, W) uint8`` edge map (non-zero on edges).
+            motion: Optional ``(H, W) uint8`` motion mask for eqs. 3-4.
+
+        Returns:
+            The estimate for this frame.
+
+        Raises:
+            RuntimeError: The tracker was not initialised.
+        """
+        if self.particles is None or self.previous is None:
+            raise RuntimeError('ContourTracker.step called before initialise')
+        params = self.parameters
+        if self.particles.shape[0] != params.num_particles:
+            self._resize(params.num_particles)
+        self.particles, self.previous = predict(
+            self.particles, self.previous, params.velocity_damping, np.asarray(params.process_noise), self.rng
+        )
+        costs, matched = contour_costs(
+            edges,
+            self.particles,
+            self.template.points,
+            self.template.normals,
+            search_halfwidth=params.search_halfwidth,
+            miss_penalty=params.miss_penalty,
+            motion=motion,
+            orientation_tolerance=params.orientation_tolerance,
+        )
+        weights = normalised_weights(log_likelihood(costs, params.likelihood_gain))
+        state = weighted_estimate(self.particles, weights)
+        estimate = TrackEstimate(
+            state=state,
+            covariance=weighted_covariance(self.particles, weights),
+            confidence=float(weights @ matched) / self.template.num_points,
+            effective_sample_size=effective_sample_size(weights),
+            box=box_from_state(state, self.template),
+            contour=transform_points(self.template.points, state),
+        )
+        keep = systematic_resample(weights, self.rng)
+        self.particles = self.particles[keep]
+        self.previous = self.previous[keep]
+        return estimate
+
+    def _resize(self, count: int) -> None:
+        """Change the particle count at run time by resampling the current cloud uniformly."""
+        assert self.particles is not None and self.previous is not None
+        keep = self.rng.integers(0, self.particles.shape[0], size=count)
+        self.particles = self.particles[keep]
+        self.previous = self.previous[keep]

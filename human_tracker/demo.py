@@ -27,21 +27,27 @@ from human_tracker.io.bags import CAMERA_INFO_TOPIC, read_frames
 from human_tracker.ros.collector import PoseCollector
 from human_tracker.ros.image_conversion import message_to_bgr8
 from human_tracker.ros.processes import NodeProcess, ros_environment
-from human_tracker.vision.templates import head_and_shoulders
-from human_tracker.vision.templates import fit_state
+from human_tracker.vision.templates import fit_state, head_and_shoulders
 from human_tracker.vision.tracker import box_from_state
 
 __all__ = ['run_demo', 'tracker_arguments', 'main']
 
 
-def tracker_arguments(camera_topic: str, compressed: bool, init_box: tuple[float, float, float, float], reliable: bool = True) -> list[str]:
+def tracker_arguments(
+    camera_topic: str, compressed: bool, init_box: tuple[float, float, float, float], reliable: bool = True
+) -> list[str]:
     """``--ros-args`` for a tracker_node fed by a bag's camera topic."""
     args = ['--ros-args', '-p', f'image_transport:={"compressed" if compressed else "raw"}']
     args += ['-p', 'init_box:=[' + ', '.join(f'{v:.2f}' for v in init_box) + ']']
     if reliable:
         # Every frame of the replay must be tracked so that it can be scored.
         args += ['-p', 'qos_reliability:=reliable', '-p', 'qos_depth:=100']
-    args += ['-r', f'{"image/compressed" if compressed else "image"}:={camera_topic}', '-r', f'camera_info:={CAMERA_INFO_TOPIC}']
+    args += [
+        '-r',
+        f'{"image/compressed" if compressed else "image"}:={camera_topic}',
+        '-r',
+        f'camera_info:={CAMERA_INFO_TOPIC}',
+    ]
     return args
 
 
@@ -66,8 +72,18 @@ def run_demo(bag: Path, out: Path, *, domain_id: int | None = None, rate: float 
     collector = PoseCollector()
     executor = SingleThreadedExecutor()
     executor.add_node(collector)
-    tracker = NodeProcess('human_tracker.ros.tracker_node', tracker_arguments(camera_topic, compressed, first.ground_truth), env, out / 'tracker_node.log')
-    player = NodeProcess('human_tracker.ros.bag_play', [str(bag), '--rate', str(rate), '--wait-for-subscribers', camera_topic, '1'], env, out / 'bag_play.log')
+    tracker = NodeProcess(
+        'human_tracker.ros.tracker_node',
+        tracker_arguments(camera_topic, compressed, first.ground_truth),
+        env,
+        out / 'tracker_node.log',
+    )
+    player = NodeProcess(
+        'human_tracker.ros.bag_play',
+        [str(bag), '--rate', str(rate), '--wait-for-subscribers', camera_topic, '1'],
+        env,
+        out / 'bag_play.log',
+    )
     try:
         tracker.start()
         if not collector.wait_for_publisher(executor, 60.0):
@@ -95,7 +111,24 @@ def run_demo(bag: Path, out: Path, *, domain_id: int | None = None, rate: float 
     writer = None
     with (out / 'poses.csv').open('w', newline='') as handle:
         table = csv.writer(handle)
-        table.writerow(['frame', 'stamp_ns', 'x', 'y', 'scale', 'theta', 'status', 'pos_x_m', 'pos_y_m', 'pos_z_m', 'box_x', 'box_y', 'box_w', 'box_h'])
+        table.writerow(
+            [
+                'frame',
+                'stamp_ns',
+                'x',
+                'y',
+                'scale',
+                'theta',
+                'status',
+                'pos_x_m',
+                'pos_y_m',
+                'pos_z_m',
+                'box_x',
+                'box_y',
+                'box_w',
+                'box_h',
+            ]
+        )
         for frame in frames:
             contour = collector.contours.get(frame.stamp_ns)
             pose = collector.poses.get(frame.stamp_ns)
@@ -104,14 +137,33 @@ def run_demo(bag: Path, out: Path, *, domain_id: int | None = None, rate: float 
                 state = fit_state(template.points, contour)
                 box = box_from_state(state, template)
                 p = pose.pose.pose.position
-                table.writerow([frame.index, frame.stamp_ns, *np.round(state, 4), 'TRACKING', round(p.x, 4), round(p.y, 4), round(p.z, 4), *np.round(box, 2)])
+                table.writerow(
+                    [
+                        frame.index,
+                        frame.stamp_ns,
+                        *np.round(state, 4),
+                        'TRACKING',
+                        round(p.x, 4),
+                        round(p.y, 4),
+                        round(p.z, 4),
+                        *np.round(box, 2),
+                    ]
+                )
             else:
                 table.writerow([frame.index, frame.stamp_ns, '', '', '', '', 'NO_POSE', '', '', '', '', '', '', ''])
             predicted.append(box)
-            image = annotate(message_to_bgr8(frame.message), contour=contour, box=box, truth=frame.ground_truth, label=f'frame {frame.index}')
+            image = annotate(
+                message_to_bgr8(frame.message),
+                contour=contour,
+                box=box,
+                truth=frame.ground_truth,
+                label=f'frame {frame.index}',
+            )
             if writer is None:
                 height, width = image.shape[:2]
-                writer = cv2.VideoWriter(str(out / 'tracking.mp4'), cv2.VideoWriter_fourcc(*'mp4v'), 30.0, (width, height))
+                writer = cv2.VideoWriter(
+                    str(out / 'tracking.mp4'), cv2.VideoWriter_fourcc(*'mp4v'), 30.0, (width, height)
+                )
             writer.write(image)
     if writer is not None:
         writer.release()
@@ -137,8 +189,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('--rate', type=float, default=1.0, help='replay rate factor')
     options = parser.parse_args(argv)
     summary = run_demo(options.bag, options.out, rate=options.rate)
-    print(f"demo: {summary['poses_received']}/{summary['frames']} poses over DDS at {summary['fps']} fps; "
-          f"precision at 20 px {summary['precision_20px']:.3f}, mean centre error {summary['mean_centre_error_px']:.1f} px")
+    print(
+        f'demo: {summary["poses_received"]}/{summary["frames"]} poses over DDS at {summary["fps"]} fps; '
+        f'precision at 20 px {summary["precision_20px"]:.3f}, '
+        f'mean centre error {summary["mean_centre_error_px"]:.1f} px'
+    )
     print(f'demo: wrote {options.out}/tracking.mp4, poses.csv, summary.json')
     return 0
 

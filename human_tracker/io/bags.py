@@ -69,7 +69,9 @@ def _camera_info(spec: SceneSpec, stamp_ns: int) -> object:
         p=projection.reshape(-1),
         binning_x=0,
         binning_y=0,
-        roi=TYPESTORE.types['sensor_msgs/msg/RegionOfInterest'](x_offset=0, y_offset=0, height=0, width=0, do_rectify=False),
+        roi=TYPESTORE.types['sensor_msgs/msg/RegionOfInterest'](
+            x_offset=0, y_offset=0, height=0, width=0, do_rectify=False
+        ),
     )
 
 
@@ -79,8 +81,15 @@ def _polygon(stamp_ns: int, box: tuple[float, float, float, float] | None) -> ob
     corners = []
     if box is not None:
         x, y, w, h = box
-        corners = [point(x=x, y=y, z=0.0), point(x=x + w, y=y, z=0.0), point(x=x + w, y=y + h, z=0.0), point(x=x, y=y + h, z=0.0)]
-    return types['geometry_msgs/msg/PolygonStamped'](header=_header(stamp_ns), polygon=types['geometry_msgs/msg/Polygon'](points=corners))
+        corners = [
+            point(x=x, y=y, z=0.0),
+            point(x=x + w, y=y, z=0.0),
+            point(x=x + w, y=y + h, z=0.0),
+            point(x=x, y=y + h, z=0.0),
+        ]
+    return types['geometry_msgs/msg/PolygonStamped'](
+        header=_header(stamp_ns), polygon=types['geometry_msgs/msg/Polygon'](points=corners)
+    )
 
 
 def write_scene_bag(
@@ -111,21 +120,43 @@ def write_scene_bag(
     types = TYPESTORE.types
     with Writer(path, version=9, storage_plugin=plugin) as writer:
         image_type = 'sensor_msgs/msg/CompressedImage' if compressed else 'sensor_msgs/msg/Image'
-        camera = writer.add_connection(COMPRESSED_CAMERA_TOPIC if compressed else CAMERA_TOPIC, image_type, typestore=TYPESTORE)
+        camera = writer.add_connection(
+            COMPRESSED_CAMERA_TOPIC if compressed else CAMERA_TOPIC, image_type, typestore=TYPESTORE
+        )
         info = writer.add_connection(CAMERA_INFO_TOPIC, 'sensor_msgs/msg/CameraInfo', typestore=TYPESTORE)
-        truth = writer.add_connection(ground_truth_topic(target), 'geometry_msgs/msg/PolygonStamped', typestore=TYPESTORE)
+        truth = writer.add_connection(
+            ground_truth_topic(target), 'geometry_msgs/msg/PolygonStamped', typestore=TYPESTORE
+        )
         for frame in render_scene(spec):
             header = _header(frame.stamp_ns)
             if compressed:
                 ok, encoded = cv2.imencode('.jpg', frame.image, [cv2.IMWRITE_JPEG_QUALITY, jpeg_quality])
                 assert ok
-                msg = types['sensor_msgs/msg/CompressedImage'](header=header, format='bgr8; jpeg compressed bgr8', data=encoded.reshape(-1))
+                msg = types['sensor_msgs/msg/CompressedImage'](
+                    header=header, format='bgr8; jpeg compressed bgr8', data=encoded.reshape(-1)
+                )
             else:
                 h, w = frame.image.shape[:2]
-                msg = types['sensor_msgs/msg/Image'](header=header, height=h, width=w, encoding='bgr8', is_bigendian=0, step=w * 3, data=frame.image.reshape(-1))
+                msg = types['sensor_msgs/msg/Image'](
+                    header=header,
+                    height=h,
+                    width=w,
+                    encoding='bgr8',
+                    is_bigendian=0,
+                    step=w * 3,
+                    data=frame.image.reshape(-1),
+                )
             writer.write(camera, frame.stamp_ns, TYPESTORE.serialize_cdr(msg, image_type))
-            writer.write(info, frame.stamp_ns, TYPESTORE.serialize_cdr(_camera_info(spec, frame.stamp_ns), 'sensor_msgs/msg/CameraInfo'))
-            writer.write(truth, frame.stamp_ns, TYPESTORE.serialize_cdr(_polygon(frame.stamp_ns, frame.head_box), 'geometry_msgs/msg/PolygonStamped'))
+            writer.write(
+                info,
+                frame.stamp_ns,
+                TYPESTORE.serialize_cdr(_camera_info(spec, frame.stamp_ns), 'sensor_msgs/msg/CameraInfo'),
+            )
+            writer.write(
+                truth,
+                frame.stamp_ns,
+                TYPESTORE.serialize_cdr(_polygon(frame.stamp_ns, frame.head_box), 'geometry_msgs/msg/PolygonStamped'),
+            )
     return path
 
 
@@ -168,10 +199,16 @@ def read_frames(path: str | Path, *, camera_topic: str | None = None, target: st
         path = path.parent
     try:
         with AnyReader([path], default_typestore=TYPESTORE) as reader:
-            cameras = [c for c in reader.connections if c.msgtype in _IMAGE_TYPES and (camera_topic is None or c.topic == camera_topic)]
+            cameras = [
+                c
+                for c in reader.connections
+                if c.msgtype in _IMAGE_TYPES and (camera_topic is None or c.topic == camera_topic)
+            ]
             if not cameras:
                 found = ', '.join(sorted(f'{c.topic} ({c.msgtype})' for c in reader.connections)) or 'none'
-                raise BagError(f'{path}: no camera topic {camera_topic or "(Image or CompressedImage)"}; topics: {found}')
+                raise BagError(
+                    f'{path}: no camera topic {camera_topic or "(Image or CompressedImage)"}; topics: {found}'
+                )
             camera = cameras[0]
             truth_connections = [c for c in reader.connections if c.topic == ground_truth_topic(target)]
             truth: dict[int, tuple[float, float, float, float] | None] = {}
@@ -187,5 +224,5 @@ def read_frames(path: str | Path, *, camera_topic: str | None = None, target: st
                 msg = reader.deserialize(raw, conn.msgtype)
                 stamp = _stamp_ns(msg)
                 yield BagFrame(index, stamp, msg, truth.get(stamp))
-    except AnyReaderError as err:
+    except (AnyReaderError, OSError) as err:
         raise BagError(f'cannot read bag {path}: {err}') from err

@@ -48,7 +48,12 @@ def _recorded_qos(connection: object) -> QoSProfile:
     recorded = profiles[0]
     reliability = ReliabilityPolicy.BEST_EFFORT if int(recorded.reliability) == 2 else ReliabilityPolicy.RELIABLE
     durability = DurabilityPolicy.TRANSIENT_LOCAL if int(recorded.durability) == 1 else DurabilityPolicy.VOLATILE
-    return QoSProfile(depth=max(int(recorded.depth), 100), history=HistoryPolicy.KEEP_LAST, reliability=reliability, durability=durability)
+    return QoSProfile(
+        depth=max(int(recorded.depth), 100),
+        history=HistoryPolicy.KEEP_LAST,
+        reliability=reliability,
+        durability=durability,
+    )
 
 
 def _parse_remaps(remaps: Sequence[str]) -> dict[str, str]:
@@ -78,6 +83,8 @@ class BagPlayer(Node):
             raise ValueError(f'--rate must be > 0, got {rate}')
         self.bag = bag
         self.rate = rate
+        if not bag.exists():
+            raise ValueError(f'bag {bag} does not exist')
         self.reader = AnyReader([bag])
         self.reader.open()
         remaps = remaps or {}
@@ -88,7 +95,9 @@ class BagPlayer(Node):
         self.publishers_by_id = {}
         for conn in self.connections:
             name = remaps.get(conn.topic, conn.topic)
-            self.publishers_by_id[conn.id] = self.create_publisher(message_class(conn.msgtype), name, _recorded_qos(conn))
+            self.publishers_by_id[conn.id] = self.create_publisher(
+                message_class(conn.msgtype), name, _recorded_qos(conn)
+            )
         self.clock_pub = self.create_publisher(Clock, '/clock', 10) if clock else None
         self.published = 0
 
@@ -135,7 +144,12 @@ def _arguments(argv: Sequence[str]) -> argparse.Namespace:
     parser.add_argument('--clock', action='store_true', help='publish /clock from the bag time')
     parser.add_argument('--start-offset', type=float, default=0.0, help='seconds into the bag to start at')
     parser.add_argument('-d', '--delay', type=float, default=0.0, help='seconds to wait before playing')
-    parser.add_argument('--wait-for-subscribers', nargs=2, metavar=('TOPIC', 'COUNT'), help='wait until TOPIC has COUNT subscribers (timeout 30 s)')
+    parser.add_argument(
+        '--wait-for-subscribers',
+        nargs=2,
+        metavar=('TOPIC', 'COUNT'),
+        help='wait until TOPIC has COUNT subscribers (timeout 30 s)',
+    )
     return parser.parse_args(argv)
 
 
@@ -148,7 +162,9 @@ def main(args: list[str] | None = None) -> int:
     bag = options.bag.parent if options.bag.is_file() else options.bag
     code = 0
     try:
-        player = BagPlayer(bag, rate=options.rate, topics=options.topics, remaps=_parse_remaps(options.remap), clock=options.clock)
+        player = BagPlayer(
+            bag, rate=options.rate, topics=options.topics, remaps=_parse_remaps(options.remap), clock=options.clock
+        )
         if options.wait_for_subscribers:
             topic, count = options.wait_for_subscribers
             if not player.wait_for_subscribers(topic, int(count), 30.0):

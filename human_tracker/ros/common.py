@@ -44,7 +44,9 @@ def declare(
         elif isinstance(default, int):
             descriptor.integer_range = [IntegerRange(from_value=int(low), to_value=int(high), step=0)]
         elif isinstance(default, float):
-            descriptor.floating_point_range = [FloatingPointRange(from_value=float(low), to_value=float(high), step=0.0)]
+            descriptor.floating_point_range = [
+                FloatingPointRange(from_value=float(low), to_value=float(high), step=0.0)
+            ]
     return node.declare_parameter(name, default, descriptor).value
 
 
@@ -54,8 +56,22 @@ def image_qos(node: Node) -> QoSProfile:
     Parameters ``qos_reliability`` (``best_effort`` | ``reliable``) and ``qos_depth`` let a
     bag replay that must not lose a frame ask for reliable delivery and a deeper queue.
     """
-    reliability = declare(node, 'qos_reliability', 'best_effort', 'Image subscription reliability: best_effort or reliable.', read_only=True)
-    depth = declare(node, 'qos_depth', 1, 'Image subscription queue depth (1: always the newest frame).', low=1, high=1000, read_only=True)
+    reliability = declare(
+        node,
+        'qos_reliability',
+        'best_effort',
+        'Image subscription reliability: best_effort or reliable.',
+        read_only=True,
+    )
+    depth = declare(
+        node,
+        'qos_depth',
+        1,
+        'Image subscription queue depth (1: always the newest frame).',
+        low=1,
+        high=1000,
+        read_only=True,
+    )
     if reliability not in ('best_effort', 'reliable'):
         raise ValueError(f"qos_reliability must be 'best_effort' or 'reliable', got {reliability!r}")
     profile = QoSProfile(
@@ -84,7 +100,12 @@ class FrameCounters:
 
     def as_dict(self) -> dict[str, int]:
         """Counters as a flat dictionary."""
-        return {'received': self.received, 'processed': self.processed, 'skipped': self.skipped, 'rejected': self.rejected}
+        return {
+            'received': self.received,
+            'processed': self.processed,
+            'skipped': self.skipped,
+            'rejected': self.rejected,
+        }
 
 
 @dataclass

@@ -106,7 +106,9 @@ def image_to_array(msg: Any) -> np.ndarray:
     buffer = _buffer(msg.data)
     needed = step * (height - 1) + row_bytes
     if buffer.size < needed:
-        raise ImageConversionError(f'data holds {buffer.size} bytes, {width}x{height} {encoding} with step {step} needs {needed}')
+        raise ImageConversionError(
+            f'data holds {buffer.size} bytes, {width}x{height} {encoding} with step {step} needs {needed}'
+        )
     if buffer.size > step * height:
         raise ImageConversionError(f'data holds {buffer.size} bytes, more than height x step = {step * height}')
     if layout.to_bgr is not None and layout.channels == 2 and width % 2:

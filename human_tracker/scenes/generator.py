@@ -22,8 +22,18 @@ _HEAD_HALF_HEIGHT = 0.62
 # Neck and shoulders below a head one unit wide, centred on the origin (x right, y down).
 _BODY = np.array(
     [
-        [-0.26, 0.45], [0.26, 0.45], [0.32, 0.86], [1.0, 0.98], [1.45, 1.25], [1.7, 1.7],
-        [1.85, 8.0], [-1.85, 8.0], [-1.7, 1.7], [-1.45, 1.25], [-1.0, 0.98], [-0.32, 0.86],
+        [-0.26, 0.45],
+        [0.26, 0.45],
+        [0.32, 0.86],
+        [1.0, 0.98],
+        [1.45, 1.25],
+        [1.7, 1.7],
+        [1.85, 8.0],
+        [-1.85, 8.0],
+        [-1.7, 1.7],
+        [-1.45, 1.25],
+        [-1.0, 0.98],
+        [-0.32, 0.86],
     ],
 )
 
@@ -171,8 +181,17 @@ def _draw_person(
     for fx, fy in features[:2]:
         cv2.circle(image, (int(round(fx)), int(round(fy))), max(1, int(s * 0.05)), dark, -1, cv2.LINE_AA)
     mx, my = features[2]
-    cv2.ellipse(image, (int(round(mx)), int(round(my))), (max(1, int(s * 0.14)), max(1, int(s * 0.04))),
-                float(np.degrees(theta)), 0, 360, dark, -1, cv2.LINE_AA)
+    cv2.ellipse(
+        image,
+        (int(round(mx)), int(round(my))),
+        (max(1, int(s * 0.14)), max(1, int(s * 0.04))),
+        float(np.degrees(theta)),
+        0,
+        360,
+        dark,
+        -1,
+        cv2.LINE_AA,
+    )
 
 
 def _trajectory(spec: SceneSpec, motion_time: float) -> np.ndarray:
@@ -217,9 +236,6 @@ def render_scene(spec: SceneSpec) -> Iterator[SceneFrame]:
 
 
 SCENES: dict[str, SceneSpec] = {
-    spec.name: spec
-    for spec in (
-        SceneSpec(name='head_basic', seed=1, num_frames=120, clutter=60, noise_sigma=2.0),
-    )
+    spec.name: spec for spec in (SceneSpec(name='head_basic', seed=1, num_frames=120, clutter=60, noise_sigma=2.0),)
 }
 """The scenes whose bags ship in ``bags/``, by name."""

@@ -107,9 +107,14 @@ def _contour_costs(
                 for sign in (1.0, -1.0):
                     u = int(np.floor(px + sign * t * nx + 0.5))
                     v = int(np.floor(py + sign * t * ny + 0.5))
-                    if 0 <= u < width and 0 <= v < height and edges[v, u] != 0 and (
-                        not check_orientation
-                        or _angle_apart(normal_degrees, edges[v, u] - 1.0) <= tolerance_degrees
+                    if (
+                        0 <= u < width
+                        and 0 <= v < height
+                        and edges[v, u] != 0
+                        and (
+                            not check_orientation
+                            or _angle_apart(normal_degrees, edges[v, u] - 1.0) <= tolerance_degrees
+                        )
                     ):
                         found = t
                         zu = u

@@ -53,11 +53,20 @@ class TrackerParameters:
             (self.num_particles >= 1, f'num_particles must be >= 1, got {self.num_particles}'),
             (self.search_halfwidth > 0, f'search_halfwidth (δ) must be > 0, got {self.search_halfwidth}'),
             (self.miss_penalty >= 0, f'miss_penalty (ρ) must be >= 0, got {self.miss_penalty}'),
-            (0 < self.orientation_tolerance <= np.pi / 2, f'orientation_tolerance must be in (0, π/2], got {self.orientation_tolerance}'),
+            (
+                0 < self.orientation_tolerance <= np.pi / 2,
+                f'orientation_tolerance must be in (0, π/2], got {self.orientation_tolerance}',
+            ),
             (self.likelihood_gain > 0, f'likelihood_gain (K) must be > 0, got {self.likelihood_gain}'),
             (0.0 <= self.velocity_damping <= 1.0, f'velocity_damping must be in [0, 1], got {self.velocity_damping}'),
-            (len(self.process_noise) == 4 and min(self.process_noise) >= 0, f'process_noise must be 4 values >= 0, got {self.process_noise}'),
-            (len(self.initial_spread) == 4 and min(self.initial_spread) >= 0, f'initial_spread must be 4 values >= 0, got {self.initial_spread}'),
+            (
+                len(self.process_noise) == 4 and min(self.process_noise) >= 0,
+                f'process_noise must be 4 values >= 0, got {self.process_noise}',
+            ),
+            (
+                len(self.initial_spread) == 4 and min(self.initial_spread) >= 0,
+                f'initial_spread must be 4 values >= 0, got {self.initial_spread}',
+            ),
         ]
         for ok, message in checks:
             if not ok:

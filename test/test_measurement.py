@@ -1,0 +1,111 @@
+"""Measurement model (eqs. 1-4) with hand-computed values."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from human_tracker.vision.measurement import contour_costs, edge_map, log_likelihood, normalised_weights
+
+VERTICAL_EDGE = 1  # 1 + orientation 0°: the gradient of a vertical edge points along x
+
+
+def _scene() -> np.ndarray:
+    """A 40x40 edge map with a vertical edge line at column 13."""
+    edges = np.zeros((40, 40), dtype=np.uint8)
+    edges[:, 13] = VERTICAL_EDGE
+    return edges
+
+
+POINTS = np.array([[0.0, 0.0], [0.0, 5.0]])
+NORMALS = np.array([[1.0, 0.0], [0.0, 1.0]])  # first point looks along x, second along y
+
+
+def test_eq2_distance_squared_or_miss_penalty() -> None:
+    # Particle at (10, 10), s = 1, θ = 0. Point 0 at (10, 10) finds the edge 3 px away along
+    # its normal: φ = 3² = 9. Point 1 at (10, 15) looks along y and never meets column 13: φ = ρ.
+    particles = np.array([[10.0, 10.0, 1.0, 0.0]])
+    costs, matched = contour_costs(_scene(), particles, POINTS, NORMALS, search_halfwidth=5, miss_penalty=50)
+    assert costs[0] == pytest.approx(9 + 50) and matched[0] == 1
+    # With δ = 3 the edge at d = 3 is no longer within d < δ: both points miss.
+    costs, matched = contour_costs(_scene(), particles, POINTS, NORMALS, search_halfwidth=3, miss_penalty=50)
+    assert costs[0] == pytest.approx(100) and matched[0] == 0
+
+
+def test_eq2_searches_both_sides_and_takes_the_closest_edge() -> None:
+    edges = _scene()
+    edges[:, 8] = VERTICAL_EDGE  # 2 px on the other side of x = 10: closer than column 13
+    particles = np.array([[10.0, 10.0, 1.0, 0.0]])
+    costs, _ = contour_costs(edges, particles, POINTS[:1], NORMALS[:1], search_halfwidth=5, miss_penalty=50)
+    assert costs[0] == pytest.approx(4)
+
+
+def test_state_moves_the_points_scale_and_rotation_apply() -> None:
+    # θ = -90° maps template point (0, 5) to (5, 0) and its normal from +y to +x; s = 2 makes
+    # the offset (10, 0), so from (0, 10) the point lands on (10, 10) and meets column 13 at d = 3.
+    particles = np.array([[0.0, 10.0, 2.0, -np.pi / 2]])
+    costs, matched = contour_costs(_scene(), particles, POINTS[1:], NORMALS[1:], search_halfwidth=5, miss_penalty=50)
+    assert matched[0] == 1 and costs[0] == pytest.approx(9)
+
+
+def test_eq3_eq4_motion_weighting() -> None:
+    particles = np.array([[10.0, 10.0, 1.0, 0.0]])
+    motion = np.zeros((40, 40), dtype=np.uint8)
+    still, _ = contour_costs(_scene(), particles, POINTS, NORMALS, search_halfwidth=5, miss_penalty=50, motion=motion)
+    # γ = 1 at a still edge: φ = 9 + ρ; the miss costs 2ρ: 59 + 100.
+    assert still[0] == pytest.approx(9 + 50 + 100)
+    motion[:, 13] = 255
+    moving, _ = contour_costs(_scene(), particles, POINTS, NORMALS, search_halfwidth=5, miss_penalty=50, motion=motion)
+    # γ = 0 at a moving edge: φ = 9; the miss still costs 2ρ.
+    assert moving[0] == pytest.approx(9 + 100)
+
+
+def test_orientation_tolerance_rejects_edges_across_the_normal() -> None:
+    edges = np.zeros((40, 40), dtype=np.uint8)
+    edges[13, :] = 1 + 90  # a horizontal edge: gradient along y
+    particles = np.array([[10.0, 10.0, 1.0, 0.0]])
+    point, along_x = POINTS[:1], NORMALS[:1]
+    strict, _ = contour_costs(
+        edges, particles, point, along_x, search_halfwidth=5, miss_penalty=50, orientation_tolerance=0.5
+    )
+    assert strict[0] == pytest.approx(50)  # the only edge runs along the normal: no match
+    along_y = np.array([[0.0, 1.0]])
+    hit, _ = contour_costs(
+        edges, particles, point, along_y, search_halfwidth=5, miss_penalty=50, orientation_tolerance=0.5
+    )
+    assert hit[0] == pytest.approx(9)
+    paper, _ = contour_costs(edges, particles, point, along_y, search_halfwidth=5, miss_penalty=50)
+    assert paper[0] == pytest.approx(9)
+
+
+def test_eq1_likelihood_and_weights() -> None:
+    log_w = log_likelihood(np.array([10.0, 10.0 + np.log(2) / 0.5]), likelihood_gain=0.5)
+    np.testing.assert_allclose(log_w, [-5.0, -5.0 - np.log(2)])
+    np.testing.assert_allclose(normalised_weights(log_w), [2 / 3, 1 / 3])
+    # Huge costs must not underflow to NaN.
+    assert np.isfinite(normalised_weights(np.array([-1e6, -1e6 - 1]))).all()
+
+
+def test_edge_map_marks_a_step_with_its_orientation() -> None:
+    image = np.zeros((30, 30), dtype=np.uint8)
+    image[:, 15:] = 200
+    edges = edge_map(image, blur_sigma=1.0)
+    columns = np.nonzero(edges.any(axis=0))[0]
+    assert set(columns) <= {14, 15, 16} and len(columns) >= 1
+    values = edges[edges > 0]
+    assert np.all((values <= 3) | (values >= 178))  # orientation 0° (mod 180), stored as 1 + degrees
+
+
+def test_bad_arguments_are_refused() -> None:
+    with pytest.raises(ValueError, match='δ'):
+        contour_costs(_scene(), np.zeros((1, 4)), POINTS, NORMALS, search_halfwidth=0, miss_penalty=1)
+    with pytest.raises(ValueError, match='motion mask'):
+        contour_costs(
+            _scene(),
+            np.zeros((1, 4)),
+            POINTS,
+            NORMALS,
+            search_halfwidth=2,
+            miss_penalty=1,
+            motion=np.zeros((3, 3), np.uint8),
+        )

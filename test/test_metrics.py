@@ -1,0 +1,26 @@
+"""OTB metrics with hand-computed values."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from human_tracker.evaluation.metrics import centre_errors, overlaps, precision_at, success_auc, summarise
+
+
+def test_centre_error_iou_and_precision_hand_computed() -> None:
+    truth = [(0, 0, 10, 10), (0, 0, 10, 10), None, (0, 0, 0, 0), (0, 0, 10, 10)]
+    predicted = [(3, 4, 10, 10), (30, 0, 10, 10), (5, 5, 5, 5), (1, 1, 1, 1), None]
+    errors = centre_errors(predicted, truth)
+    # Unannotated frames (None, zero box) are skipped; a missing prediction is a failure.
+    np.testing.assert_allclose(errors, [5.0, 30.0, np.inf])
+    assert precision_at(errors, 20) == pytest.approx(1 / 3)
+    # Boxes shifted by (3, 4): intersection 7 * 6 = 42, union 200 - 42 = 158.
+    np.testing.assert_allclose(overlaps(predicted, truth), [42 / 158, 0.0, 0.0])
+
+
+def test_success_auc_of_perfect_and_empty_tracks() -> None:
+    assert success_auc(np.ones(5)) == pytest.approx(20 / 21)  # IoU 1 passes every threshold but > 1
+    assert success_auc(np.zeros(5)) == pytest.approx(0.0)
+    summary = summarise([(0, 0, 10, 10)], [(0, 0, 10, 10)])
+    assert summary['precision_20px'] == 1.0 and summary['mean_centre_error_px'] == 0.0

@@ -1,0 +1,112 @@
+"""The nodes over real rclpy / Fast DDS, in separate OS processes, driven by bag replay."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+import pytest
+import rclpy
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.parameter_client import AsyncParameterClient
+from ros_harness import environment, replay_and_collect
+
+from human_tracker.demo import tracker_arguments
+from human_tracker.evaluation.metrics import summarise
+from human_tracker.io.bags import CAMERA_TOPIC, COMPRESSED_CAMERA_TOPIC, read_frames, write_scene_bag
+from human_tracker.ros.processes import NodeProcess
+from human_tracker.scenes.generator import SCENES
+from human_tracker.vision.camera import default_camera_matrix
+from human_tracker.vision.templates import fit_state, head_and_shoulders
+from human_tracker.vision.tracker import box_from_state
+
+
+def _boxes(collector, frames) -> list:
+    template = head_and_shoulders()
+    boxes = []
+    for frame in frames:
+        contour = collector.contours.get(frame.stamp_ns)
+        boxes.append(None if contour is None else box_from_state(fit_state(template.points, contour), template))
+    return boxes
+
+
+def test_bag_play_and_tracker_node_in_separate_processes(head_bag, tmp_path) -> None:
+    frames = list(read_frames(head_bag))
+    tracker = NodeProcess(
+        'human_tracker.ros.tracker_node',
+        tracker_arguments(COMPRESSED_CAMERA_TOPIC, True, frames[0].ground_truth),
+        environment(),
+        tmp_path / 'tracker.log',
+    )
+    collector = replay_and_collect(tracker, head_bag, COMPRESSED_CAMERA_TOPIC, tmp_path, len(frames))
+    # A pose for every frame, stamped with that frame's stamp, in the camera's optical frame.
+    assert sorted(collector.poses) == [f.stamp_ns for f in frames]
+    assert collector.frame_ids == {'camera_optical_frame'}
+    summary = summarise(_boxes(collector, frames), [f.ground_truth for f in frames])
+    print(f'tracker_node over DDS: {summary}')
+    assert summary['precision_20px'] >= 0.9
+    # Depth from scale: the true head is ground-truth-box wide; 0.16 m at the bag's 60° camera.
+    focal = default_camera_matrix(640, 480)[0, 0]
+    relative = [
+        abs(collector.poses[f.stamp_ns].pose.pose.position.z / (focal * 0.16 / f.ground_truth[2]) - 1) for f in frames
+    ]
+    assert np.median(relative) < 0.1
+    covariance = np.array(collector.poses[frames[-1].stamp_ns].pose.covariance).reshape(6, 6)
+    assert np.all(np.diag(covariance) > 0)
+
+
+def test_pipeline_on_raw_640x480_frames(tmp_path) -> None:
+    """Raw bgr8 frames of 900 KB between processes (needs the 16 MB shared-memory profile)."""
+    spec = dataclasses.replace(SCENES['head_basic'], name='raw', num_frames=30)
+    bag = write_scene_bag(spec, tmp_path / 'raw_bag', compressed=False, storage='sqlite3')
+    frames = list(read_frames(bag))
+    args = tracker_arguments(CAMERA_TOPIC, False, frames[0].ground_truth)
+    pipeline = NodeProcess('human_tracker.ros.pipeline', args, environment(), tmp_path / 'pipeline.log')
+    collector = replay_and_collect(pipeline, bag, CAMERA_TOPIC, tmp_path, len(frames))
+    assert sorted(collector.poses) == [f.stamp_ns for f in frames]
+    assert summarise(_boxes(collector, frames), [f.ground_truth for f in frames])['precision_20px'] >= 0.9
+
+
+def _set(client: AsyncParameterClient, node: Node, name: str, value) -> SetParametersResult:
+    future = client.set_parameters([Parameter(name, value=value)])
+    rclpy.spin_until_future_complete(node, future, timeout_sec=10.0)
+    return future.result().results[0]
+
+
+def test_gains_change_at_run_time_and_bad_values_are_refused(tmp_path) -> None:
+    tracker = NodeProcess('human_tracker.ros.tracker_node', [], environment(), tmp_path / 'tracker.log').start()
+    rclpy.init()
+    node = Node('parameter_test')
+    try:
+        client = AsyncParameterClient(node, 'tracker_node')
+        assert client.wait_for_services(timeout_sec=60.0), tracker.output()
+        refused = _set(client, node, 'likelihood_gain', -1.0)
+        assert not refused.successful and refused.reason
+        refused = _set(client, node, 'process_noise', [1.0, 2.0])
+        assert not refused.successful and 'process_noise' in refused.reason
+        accepted = _set(client, node, 'likelihood_gain', 0.02)
+        assert accepted.successful
+        future = client.get_parameters(['likelihood_gain'])
+        rclpy.spin_until_future_complete(node, future, timeout_sec=10.0)
+        assert future.result().values[0].double_value == pytest.approx(0.02)
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+        assert tracker.stop() == 0
+    assert 'tracker gains changed' in tracker.output()
+
+
+def test_invalid_parameter_at_start_is_refused_with_a_reason(tmp_path) -> None:
+    tracker = NodeProcess(
+        'human_tracker.ros.tracker_node',
+        ['--ros-args', '-p', 'image_transport:=carrier_pigeon'],
+        environment(),
+        tmp_path / 'tracker.log',
+    ).start()
+    started = time.monotonic()
+    assert tracker.wait(60.0) == 2
+    assert time.monotonic() - started < 60
+    assert "image_transport must be 'raw' or 'compressed'" in tracker.output()

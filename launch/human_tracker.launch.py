@@ -1,0 +1,56 @@
+"""Launch the tracker on a robot's camera.
+
+ros2 launch human_tracker human_tracker.launch.py image:=/camera/color/image_raw
+    [camera_info:=/camera/color/camera_info] [namespace:=head_tracker]
+    [params_file:=/path/to/human_tracker.yaml] [single_process:=true]
+"""
+
+from __future__ import annotations
+
+import os
+
+from ament_index_python.packages import get_package_share_directory
+from launch.actions import DeclareLaunchArgument, SetEnvironmentVariable
+from launch.conditions import IfCondition, UnlessCondition
+from launch.substitutions import LaunchConfiguration
+from launch_ros.actions import Node
+
+from launch import LaunchDescription
+
+
+def generate_launch_description() -> LaunchDescription:
+    share = get_package_share_directory('human_tracker')
+    image = LaunchConfiguration('image')
+    remappings = [
+        ('image', image),
+        ('image/compressed', [image, '/compressed']),
+        ('camera_info', LaunchConfiguration('camera_info')),
+    ]
+    common = {
+        'package': 'human_tracker',
+        'namespace': LaunchConfiguration('namespace'),
+        'parameters': [LaunchConfiguration('params_file')],
+        'remappings': remappings,
+        'output': 'screen',
+    }
+    return LaunchDescription(
+        [
+            DeclareLaunchArgument('image', default_value='/camera/image_raw', description='camera image topic'),
+            DeclareLaunchArgument('camera_info', default_value='/camera/camera_info', description='camera_info topic'),
+            DeclareLaunchArgument('namespace', default_value='', description='namespace of the nodes and their topics'),
+            DeclareLaunchArgument(
+                'params_file',
+                default_value=os.path.join(share, 'config', 'human_tracker.yaml'),
+                description='parameters file',
+            ),
+            DeclareLaunchArgument(
+                'single_process', default_value='true', description='one process (pipeline) or one per node'
+            ),
+            # Camera frames between processes need a larger shared-memory segment than the default.
+            SetEnvironmentVariable(
+                'FASTRTPS_DEFAULT_PROFILES_FILE', os.path.join(share, 'config', 'fastdds_large_shm.xml')
+            ),
+            Node(executable='pipeline', condition=IfCondition(LaunchConfiguration('single_process')), **common),
+            Node(executable='tracker_node', condition=UnlessCondition(LaunchConfiguration('single_process')), **common),
+        ]
+    )

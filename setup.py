@@ -28,6 +28,8 @@ setup(
         'console_scripts': [
             f'tracker_node = {PACKAGE}.ros.tracker_node:main',
             f'pipeline = {PACKAGE}.ros.pipeline:main',
+            f'background_node = {PACKAGE}.ros.background_node:main',
+            f'optical_flow_node = {PACKAGE}.ros.optical_flow_node:main',
             f'bag_play = {PACKAGE}.ros.bag_play:main',
             f'human_tracker = {PACKAGE}.cli:main',
         ],

@@ -1,7 +1,8 @@
 """``make demo``: replay a bag through the tracker over real DDS and report what it did.
 
-Three OS processes on an isolated local DDS domain, as on a robot: ``bag_play`` publishes
-the bag, ``tracker_node`` tracks, and this process collects the poses. Writes to the output
+Four OS processes on an isolated local DDS domain, as on a robot: ``bag_play`` publishes
+the bag, ``background_node`` segments the moving person, ``tracker_node`` tracks with that
+foreground as its motion cue (eqs. 3-4), and this process collects the poses. Writes to the output
 folder: ``tracking.mp4`` (annotated video), ``poses.csv`` and ``summary.json`` (frames,
 fps, precision at 20 px against the bag's ground truth).
 """
@@ -30,15 +31,22 @@ from human_tracker.ros.processes import NodeProcess, ros_environment
 from human_tracker.vision.templates import fit_state, head_and_shoulders
 from human_tracker.vision.tracker import box_from_state
 
-__all__ = ['run_demo', 'tracker_arguments', 'main']
+__all__ = ['run_demo', 'node_arguments', 'main']
 
 
-def tracker_arguments(
-    camera_topic: str, compressed: bool, init_box: tuple[float, float, float, float], reliable: bool = True
+def node_arguments(
+    camera_topic: str,
+    compressed: bool,
+    init_box: tuple[float, float, float, float] | None = None,
+    motion_input: str = 'none',
+    reliable: bool = True,
 ) -> list[str]:
-    """``--ros-args`` for a tracker_node fed by a bag's camera topic."""
+    """``--ros-args`` for a node fed by a bag's camera topic (and, for the tracker, a motion cue)."""
     args = ['--ros-args', '-p', f'image_transport:={"compressed" if compressed else "raw"}']
-    args += ['-p', 'init_box:=[' + ', '.join(f'{v:.2f}' for v in init_box) + ']']
+    if init_box is not None:
+        args += ['-p', 'init_box:=[' + ', '.join(f'{v:.2f}' for v in init_box) + ']']
+    if motion_input != 'none':
+        args += ['-p', f'motion_input:={motion_input}']
     if reliable:
         # Every frame of the replay must be tracked so that it can be scored.
         args += ['-p', 'qos_reliability:=reliable', '-p', 'qos_depth:=100']
@@ -52,7 +60,7 @@ def tracker_arguments(
 
 
 def run_demo(bag: Path, out: Path, *, domain_id: int | None = None, rate: float = 1.0) -> dict[str, object]:
-    """Replay ``bag`` through tracker_node over DDS; write results to ``out``; return the summary."""
+    """Replay ``bag`` through background_node and tracker_node over DDS; write results to ``out``."""
     out.mkdir(parents=True, exist_ok=True)
     frames = list(read_frames(bag))
     if not frames:
@@ -72,19 +80,24 @@ def run_demo(bag: Path, out: Path, *, domain_id: int | None = None, rate: float 
     collector = PoseCollector()
     executor = SingleThreadedExecutor()
     executor.add_node(collector)
+    background = NodeProcess(
+        'human_tracker.ros.background_node', node_arguments(camera_topic, compressed), env, out / 'background_node.log'
+    )
     tracker = NodeProcess(
         'human_tracker.ros.tracker_node',
-        tracker_arguments(camera_topic, compressed, first.ground_truth),
+        node_arguments(camera_topic, compressed, first.ground_truth, motion_input='foreground'),
         env,
         out / 'tracker_node.log',
     )
     player = NodeProcess(
         'human_tracker.ros.bag_play',
-        [str(bag), '--rate', str(rate), '--wait-for-subscribers', camera_topic, '1'],
+        # Both background_node and tracker_node subscribe to the camera.
+        [str(bag), '--rate', str(rate), '--wait-for-subscribers', camera_topic, '2'],
         env,
         out / 'bag_play.log',
     )
     try:
+        background.start()
         tracker.start()
         if not collector.wait_for_publisher(executor, 60.0):
             raise SystemExit(f'demo: tracker_node did not come up; its log:\n{tracker.output()}')
@@ -101,6 +114,7 @@ def run_demo(bag: Path, out: Path, *, domain_id: int | None = None, rate: float 
             raise SystemExit(f'demo: bag_play failed; its log:\n{player.output()}')
     finally:
         tracker.stop()
+        background.stop()
         player.stop()
         executor.shutdown()
         collector.destroy_node()
@@ -169,7 +183,8 @@ def run_demo(bag: Path, out: Path, *, domain_id: int | None = None, rate: float 
         writer.release()
     summary: dict[str, object] = {
         'bag': str(bag),
-        'mode': 'bag_play -> tracker_node -> collector, separate processes over DDS',
+        'mode': 'bag_play -> background_node -> tracker_node (motion_input foreground) -> collector, '
+        'separate processes over DDS',
         'frames': len(frames),
         'poses_received': len(collector.poses),
         'frame_ids': sorted(collector.frame_ids),

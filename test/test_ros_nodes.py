@@ -14,7 +14,7 @@ from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
 from ros_harness import environment, replay_and_collect
 
-from human_tracker.demo import tracker_arguments
+from human_tracker.demo import node_arguments
 from human_tracker.evaluation.metrics import summarise
 from human_tracker.io.bags import CAMERA_TOPIC, COMPRESSED_CAMERA_TOPIC, read_frames, write_scene_bag
 from human_tracker.ros.processes import NodeProcess
@@ -37,7 +37,7 @@ def test_bag_play_and_tracker_node_in_separate_processes(head_bag, tmp_path) -> 
     frames = list(read_frames(head_bag))
     tracker = NodeProcess(
         'human_tracker.ros.tracker_node',
-        tracker_arguments(COMPRESSED_CAMERA_TOPIC, True, frames[0].ground_truth),
+        node_arguments(COMPRESSED_CAMERA_TOPIC, True, frames[0].ground_truth),
         environment(),
         tmp_path / 'tracker.log',
     )
@@ -63,7 +63,7 @@ def test_pipeline_on_raw_640x480_frames(tmp_path) -> None:
     spec = dataclasses.replace(SCENES['head_basic'], name='raw', num_frames=30)
     bag = write_scene_bag(spec, tmp_path / 'raw_bag', compressed=False, storage='sqlite3')
     frames = list(read_frames(bag))
-    args = tracker_arguments(CAMERA_TOPIC, False, frames[0].ground_truth)
+    args = node_arguments(CAMERA_TOPIC, False, frames[0].ground_truth)
     pipeline = NodeProcess('human_tracker.ros.pipeline', args, environment(), tmp_path / 'pipeline.log')
     collector = replay_and_collect(pipeline, bag, CAMERA_TOPIC, tmp_path, len(frames))
     assert sorted(collector.poses) == [f.stamp_ns for f in frames]
@@ -96,7 +96,7 @@ def test_gains_change_at_run_time_and_bad_values_are_refused(tmp_path) -> None:
         node.destroy_node()
         rclpy.try_shutdown()
         assert tracker.stop() == 0
-    assert 'tracker gains changed' in tracker.output()
+    assert "parameters changed: {'likelihood_gain': 0.02}" in tracker.output()
 
 
 def test_invalid_parameter_at_start_is_refused_with_a_reason(tmp_path) -> None:

@@ -1,14 +1,14 @@
 """``pipeline``: every stage in one process, frames handed over in memory.
 
-A camera subscriber converts each image once and passes the array to the stages (today
-the tracker), so no frame is serialised twice; the stages publish the same topics as the
-separate nodes, under the same parameters.
+A camera subscriber converts each image once and passes the array to the motion stage
+(``motion_cue``: background subtraction, optical flow, or none) and then, with that stage's
+mask, to the tracker. The stages publish the same topics as the separate nodes, under the
+same parameters; only the transport between them is gone.
 """
 
 from __future__ import annotations
 
 import sys
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -16,47 +16,50 @@ import rclpy
 import rclpy.logging
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
-from sensor_msgs.msg import CompressedImage, Image
 
-from human_tracker.ros.common import FrameCounters, declare, image_qos
-from human_tracker.ros.image_conversion import ImageConversionError, message_to_bgr8
+from human_tracker.ros.background_node import BackgroundNode
+from human_tracker.ros.common import declare
+from human_tracker.ros.optical_flow_node import OpticalFlowNode
+from human_tracker.ros.stage import ImageStage
 from human_tracker.ros.tracker_node import TrackerNode
 
-__all__ = ['CameraSubscriber', 'main']
+__all__ = ['MOTION_CUES', 'CameraSubscriber', 'build_pipeline', 'main']
 
-FrameConsumer = Callable[[np.ndarray, Any], object]
+MOTION_CUES = {'none': None, 'background': BackgroundNode, 'flow': OpticalFlowNode}
 
 
-class CameraSubscriber(Node):
-    """Subscribes ``image`` (or ``image/compressed``) and hands each BGR frame to consumers."""
+class CameraSubscriber(ImageStage):
+    """Subscribes the camera and runs the motion stage, then the tracker, on each frame."""
 
-    def __init__(self, consumers: list[FrameConsumer], **kwargs: Any) -> None:
+    def __init__(self, motion_stage: ImageStage | None, tracker: TrackerNode, **kwargs: Any) -> None:
         super().__init__('camera_subscriber', **kwargs)
-        self.consumers = consumers
-        self.counters = FrameCounters()
-        transport = declare(
-            self, 'image_transport', 'raw', 'Image input: raw (image) or compressed (image/compressed).', read_only=True
-        )
-        if transport not in ('raw', 'compressed'):
-            raise ValueError(f"image_transport must be 'raw' or 'compressed', got {transport!r}")
-        qos = image_qos(self)
-        if transport == 'compressed':
-            self.create_subscription(CompressedImage, 'image/compressed', self.on_image, qos)
-        else:
-            self.create_subscription(Image, 'image', self.on_image, qos)
+        self.motion_stage = motion_stage
+        self.tracker = tracker
 
-    def on_image(self, msg: Image | CompressedImage) -> None:
-        """Convert once; a frame that cannot be converted is counted and logged."""
-        self.counters.received += 1
-        try:
-            image = message_to_bgr8(msg)
-        except ImageConversionError as err:
-            self.counters.reject('conversion')
-            self.get_logger().warn(f'frame rejected: {err}', throttle_duration_sec=5.0)
-            return
+    def handle_frame(self, image: np.ndarray, header: Any, **cues: Any) -> object:
+        mask = None if self.motion_stage is None else self.motion_stage.process_frame(image, header)
         self.counters.processed += 1
-        for consume in self.consumers:
-            consume(image, msg.header)
+        return self.tracker.process_frame(image, header, motion=mask)
+
+
+def build_pipeline() -> list[Node]:
+    """The pipeline's nodes: [camera subscriber, motion stage (if any), tracker]."""
+    selector = Node('pipeline')
+    cue = declare(
+        selector,
+        'motion_cue',
+        'background',
+        'Motion cue computed in process: none, background or flow.',
+        read_only=True,
+    )
+    if cue not in MOTION_CUES:
+        selector.destroy_node()
+        raise ValueError(f'motion_cue must be one of {", ".join(MOTION_CUES)}, got {cue!r}')
+    stage_type = MOTION_CUES[cue]
+    motion_stage = None if stage_type is None else stage_type(subscribe_image=False)
+    tracker = TrackerNode(subscribe_image=False)
+    camera = CameraSubscriber(motion_stage, tracker)
+    return [selector, camera, *([motion_stage] if motion_stage is not None else []), tracker]
 
 
 def main(args: list[str] | None = None) -> int:
@@ -66,9 +69,7 @@ def main(args: list[str] | None = None) -> int:
     executor = SingleThreadedExecutor()
     code = 0
     try:
-        tracker = TrackerNode(subscribe_image=False)
-        camera = CameraSubscriber([tracker.handle_frame])
-        nodes = [tracker, camera]
+        nodes = build_pipeline()
         for node in nodes:
             executor.add_node(node)
         executor.spin()

@@ -1,298 +1,273 @@
 """``tracker_node``: the particle-filter contour tracker as a ROS 2 node.
 
-Subscribes ``image`` (or ``image/compressed``) and ``camera_info``; publishes ``pose``
-(PoseWithCovarianceStamped, metres, optical frame), ``contour`` (PolygonStamped, pixels),
-``debug_image`` (only when subscribed) and ``/diagnostics``. Every output copies the
-header of the image it was computed from.
+Subscribes ``image`` (or ``image/compressed``), ``camera_info`` and, with
+``motion_input: foreground`` or ``motion``, that mask topic, matched to the image by exact
+stamp. Publishes ``pose`` (PoseWithCovarianceStamped, metres, optical frame) and ``contour``
+(PolygonStamped, pixels) while the target is tracked, ``debug_image`` (only when subscribed)
+and ``/diagnostics``. Every output copies the header of the image it was computed from.
 """
 
 from __future__ import annotations
 
 import sys
 import time
+from collections import OrderedDict, deque
 from typing import Any
 
 import numpy as np
-import rclpy
-import rclpy.logging
-from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Point32, PolygonStamped, PoseWithCovarianceStamped
-from rcl_interfaces.msg import SetParametersResult
-from rclpy.executors import ExternalShutdownException
-from rclpy.node import Node
-from rclpy.parameter import Parameter
-from sensor_msgs.msg import CameraInfo, CompressedImage, Image
+from sensor_msgs.msg import CameraInfo, Image
 
 from human_tracker.drawing import annotate
-from human_tracker.ros.common import (
-    RESULT_QOS,
-    FrameCounters,
-    StageTimer,
-    declare,
-    diagnostic_status,
-    image_qos,
-    publish_diagnostics,
-)
-from human_tracker.ros.image_conversion import ImageConversionError, array_to_image, message_to_bgr8, to_mono8
+from human_tracker.ros.common import RESULT_QOS, declare
+from human_tracker.ros.image_conversion import ImageConversionError, array_to_image, image_to_array, to_mono8
+from human_tracker.ros.stage import ImageStage, ParameterSpec, spin_node, stamp_ns
 from human_tracker.vision.camera import default_camera_matrix, metric_positions
-from human_tracker.vision.measurement import edge_map
+from human_tracker.vision.target import TargetParameters, TargetResult, TargetTracker
 from human_tracker.vision.templates import make_template
-from human_tracker.vision.tracker import ContourTracker, TrackerParameters, TrackEstimate
+from human_tracker.vision.tracker import TrackerParameters
 
-__all__ = ['TrackerNode', 'main']
+__all__ = ['FILTER_PARAMETERS', 'TARGET_PARAMETERS', 'TrackerNode', 'main']
 
-# Parameters that map one to one onto TrackerParameters and may change at run time.
-_GAINS = (
-    'num_particles',
-    'search_halfwidth',
-    'miss_penalty',
-    'likelihood_gain',
-    'orientation_tolerance',
-    'velocity_damping',
-    'process_noise',
+FILTER_PARAMETERS = (
+    ParameterSpec('num_particles', 'P, number of particles.', 1, 100000),
+    ParameterSpec(
+        'search_halfwidth', 'δ (eq. 2): pixels searched each side of a contour point along its normal.', 0.5, 500.0
+    ),
+    ParameterSpec('miss_penalty', 'ρ (eqs. 2-3): cost of a point with no edge within δ.', 0.0, 1e9),
+    ParameterSpec('likelihood_gain', 'K (eq. 1): gain of the likelihood exp(-K Σ φ).', 1e-9, 1e3),
+    ParameterSpec(
+        'orientation_tolerance',
+        'Largest angle (rad) between an edge gradient and the contour normal for the edge to count; '
+        'π/2: every edge (the paper).',
+        0.01,
+        float(np.pi / 2),
+    ),
+    ParameterSpec('velocity_damping', 'a of the AR(2) dynamics (§2.2): 0 random walk, 1 constant velocity.', 0.0, 1.0),
+    ParameterSpec('process_noise', 'W (§2.2): std of x, y (px), s (fraction), θ (rad) per frame.'),
+    ParameterSpec('initial_spread', 'Σ (§2.5): std of the initial cloud: x, y (px), s (fraction), θ (rad).'),
+    ParameterSpec('min_scale', 'Smallest scale s: reference region width in pixels.', 1.0, 1e5),
+    ParameterSpec('max_scale', 'Largest scale s: reference region width in pixels.', 1.0, 1e5),
+    ParameterSpec('seed', 'Seed of the particle filter (replays are reproducible).', 0, 2**31 - 1, runtime=False),
+)
+
+TARGET_PARAMETERS = (
+    ParameterSpec(
+        'motion_mode',
+        'How motion enters the likelihood: off (eqs. 1-2), weighted (eqs. 3-4) or mask (moving edges only).',
+    ),
+    ParameterSpec('init_method', 'Initialisation from the moving region: scan (§2.5.2, head) or moments (§2.5.1).'),
+    ParameterSpec('upright_angle', 'θ_upright of the scan initialisation, rad.', -3.2, 3.2),
+    ParameterSpec('min_blob_area', 'Smallest moving region (pixels) that can start or restart a track.', 1, 10_000_000),
+    ParameterSpec(
+        'region_closing', 'Closing radius (pixels) joining a moving silhouette before it is measured.', 0, 100
+    ),
+    ParameterSpec(
+        'init_confidence',
+        'Fraction of contour points on edges a motion hypothesis needs to start the filter.',
+        0.0,
+        1.0,
+    ),
+    ParameterSpec(
+        'switch_margin',
+        'How much more moving support a hypothesis elsewhere needs to restart the filter there.',
+        0.0,
+        1.0,
+    ),
+    ParameterSpec('hypothesis_samples', 'States scored around a motion hypothesis.', 1, 100000),
+    ParameterSpec('lost_confidence', 'Fraction of contour points on edges below which a frame is weak.', 0.0, 1.0),
+    ParameterSpec('lost_frames', 'Consecutive weak frames after which the target is lost.', 1, 100000),
+    ParameterSpec('edge_blur_sigma', 'Gaussian pre-filter of the edge detector, pixels.', 0.0, 20.0),
+    ParameterSpec('canny_low', 'Canny low hysteresis threshold.', 0.0, 10000.0),
+    ParameterSpec('canny_high', 'Canny high hysteresis threshold.', 0.0, 10000.0),
 )
 _UNKNOWN_VARIANCE = 1e3  # roll and pitch are not observed: a large variance says so
+_MOTION_INPUTS = ('none', 'foreground', 'motion')
 
 
-def _stamp_ns(header: Any) -> int:
-    return int(header.stamp.sec) * 1_000_000_000 + int(header.stamp.nanosec)
-
-
-class TrackerNode(Node):
+class TrackerNode(ImageStage):
     """Tracks a head (or hand) silhouette in the image stream and publishes its pose."""
 
     def __init__(self, *, subscribe_image: bool = True, **kwargs: Any) -> None:
-        super().__init__('tracker_node', **kwargs)
-        defaults = TrackerParameters()
+        super().__init__('tracker_node', subscribe_image=subscribe_image, **kwargs)
         target = declare(self, 'target', 'head', 'What to track: head (head-and-shoulders template).', read_only=True)
         template_file = declare(
-            self,
-            'template_file',
-            '',
-            'JSON template file replacing the built-in one (empty: built-in).',
-            read_only=True,
+            self, 'template_file', '', 'JSON template replacing the built-in one (empty: built-in).', read_only=True
         )
         num_points = declare(
             self, 'num_points', 48, 'N, measurement points along the spline (§2.3).', low=4, high=1024, read_only=True
         )
         self.template = make_template(target, num_points, template_file)
-        params = TrackerParameters(
-            num_particles=declare(
-                self, 'num_particles', defaults.num_particles, 'P, number of particles.', low=1, high=100000
-            ),
-            search_halfwidth=declare(
-                self,
-                'search_halfwidth',
-                defaults.search_halfwidth,
-                'δ (eq. 2): pixels searched each side of a point along its normal.',
-                low=0.5,
-                high=500.0,
-            ),
-            miss_penalty=declare(
-                self,
-                'miss_penalty',
-                defaults.miss_penalty,
-                'ρ (eqs. 2-3): cost of a point with no edge within δ.',
-                low=0.0,
-                high=1e9,
-            ),
-            likelihood_gain=declare(
-                self,
-                'likelihood_gain',
-                defaults.likelihood_gain,
-                'K (eq. 1): gain of the likelihood exp(-K Σ φ).',
-                low=1e-9,
-                high=1e3,
-            ),
-            orientation_tolerance=declare(
-                self,
-                'orientation_tolerance',
-                defaults.orientation_tolerance,
-                'Largest angle (rad) between an edge gradient and the contour normal for the edge to count; '
-                'π/2 accepts every edge (the paper).',
-                low=0.01,
-                high=float(np.pi / 2),
-            ),
-            velocity_damping=declare(
-                self,
-                'velocity_damping',
-                defaults.velocity_damping,
-                'a of the AR(2) dynamics (§2.2): 0 random walk, 1 constant velocity.',
-                low=0.0,
-                high=1.0,
-            ),
-            process_noise=tuple(
-                declare(
-                    self,
-                    'process_noise',
-                    list(defaults.process_noise),
-                    'W (§2.2): std of x, y (px), s (fraction), θ (rad) per frame.',
-                )
-            ),
-            initial_spread=tuple(
-                declare(
-                    self,
-                    'initial_spread',
-                    list(defaults.initial_spread),
-                    'Σ (§2.5): std of the initial cloud, x, y (px), s (fraction), θ (rad).',
-                    read_only=True,
-                )
-            ),
-            seed=declare(
-                self,
-                'seed',
-                0,
-                'Seed of the particle filter (replays are reproducible).',
-                low=0,
-                high=2**31 - 1,
-                read_only=True,
-            ),
-        )
-        self.tracker = ContourTracker(self.template, params)
-        self.init_box = [
+        filter_parameters = self.bind_parameters(TrackerParameters(), FILTER_PARAMETERS, self._apply_filter)
+        target_parameters = self.bind_parameters(TargetParameters(), TARGET_PARAMETERS, self._apply_target)
+        self.tracker = TargetTracker(self.template, filter_parameters, target_parameters)
+        box = [
             float(v)
             for v in declare(
                 self,
                 'init_box',
                 [0.0, 0.0, 0.0, 0.0],
-                'Initial box x, y, w, h (pixels) of the head or hand in the first frame; zeros: none.',
+                'Box x, y, w, h (pixels) of the target in the first frame; zeros: start from motion.',
                 read_only=True,
             )
         ]
-        if len(self.init_box) != 4:
-            raise ValueError(f'init_box must be [x, y, w, h], got {self.init_box}')
-        self.edge_blur = declare(
-            self, 'edge_blur_sigma', 1.5, 'Gaussian pre-filter of the edge detector, pixels.', low=0.0, high=20.0
-        )
-        self.canny_low = declare(self, 'canny_low', 40.0, 'Canny low hysteresis threshold.', low=0.0, high=10000.0)
-        self.canny_high = declare(self, 'canny_high', 100.0, 'Canny high hysteresis threshold.', low=0.0, high=10000.0)
+        if len(box) != 4 or min(box[2:]) < 0:
+            raise ValueError(f'init_box must be [x, y, w >= 0, h >= 0], got {box}')
+        self.init_box = tuple(box) if box[2] > 0 and box[3] > 0 else None
         self.target_width = declare(
             self,
             'target_width',
             0.16,
-            'Physical width of the head (or hand) in metres, for depth from scale.',
+            'Physical width of the head (or hand), metres: depth from scale.',
             low=0.01,
             high=2.0,
         )
-        transport = declare(
-            self, 'image_transport', 'raw', 'Image input: raw (image) or compressed (image/compressed).', read_only=True
-        )
-        if transport not in ('raw', 'compressed'):
-            raise ValueError(f"image_transport must be 'raw' or 'compressed', got {transport!r}")
-        period = declare(
+        self.motion_input = declare(
             self,
-            'diagnostics_period',
-            1.0,
-            'Seconds between /diagnostics messages.',
-            low=0.05,
-            high=60.0,
+            'motion_input',
+            'none',
+            'Motion cue topic: none, foreground (background_node) or motion (optical_flow_node).',
             read_only=True,
         )
-        self.add_on_set_parameters_callback(self._on_set_parameters)
+        if self.motion_input not in _MOTION_INPUTS:
+            raise ValueError(f'motion_input must be one of {", ".join(_MOTION_INPUTS)}, got {self.motion_input!r}')
+        self.match_timeout = declare(
+            self,
+            'match_timeout',
+            0.25,
+            'Seconds a frame waits for its motion mask before it is tracked without.',
+            low=0.0,
+            high=10.0,
+        )
+        self.max_pending = declare(
+            self,
+            'max_pending',
+            10,
+            'Frames held while waiting for their masks; more are tracked without.',
+            low=1,
+            high=1000,
+            read_only=True,
+        )
 
-        self.counters = FrameCounters()
-        self.timer_stats = StageTimer()
         self.camera_matrix: np.ndarray | None = None
         self.last_stamp_ns = -1
-        self.last_estimate: TrackEstimate | None = None
+        self.last_result: TargetResult | None = None
+        self.unmatched = 0
+        self.pending: deque[tuple[int, float, np.ndarray, Any]] = deque()
+        self.masks: OrderedDict[int, np.ndarray] = OrderedDict()
 
         self.pose_pub = self.create_publisher(PoseWithCovarianceStamped, 'pose', RESULT_QOS)
         self.contour_pub = self.create_publisher(PolygonStamped, 'contour', RESULT_QOS)
         self.debug_pub = self.create_publisher(Image, 'debug_image', RESULT_QOS)
-        self.diagnostics_pub = self.create_publisher(DiagnosticArray, '/diagnostics', RESULT_QOS)
         self.create_subscription(CameraInfo, 'camera_info', self._on_camera_info, RESULT_QOS)
-        if subscribe_image:
-            qos = image_qos(self)
-            if transport == 'compressed':
-                self.create_subscription(CompressedImage, 'image/compressed', self.on_image, qos)
-            else:
-                self.create_subscription(Image, 'image', self.on_image, qos)
-        self.create_timer(period, self._publish_diagnostics)
+        if subscribe_image and self.motion_input != 'none':
+            self.create_subscription(Image, self.motion_input, self._on_mask, RESULT_QOS)
+            self.create_timer(0.02, self._drain)
         self._warm_up()
         self.get_logger().info(
-            f'ready: tracking {target} with {params.num_particles} particles, {self.template.num_points} points'
+            f'ready: tracking {target} with {filter_parameters.num_particles} particles, '
+            f'{self.template.num_points} points, motion input {self.motion_input}'
         )
 
     def _warm_up(self) -> None:
         """Run the compiled kernels once so the first real frame is not slowed by JIT."""
-        probe = ContourTracker(self.template, TrackerParameters(num_particles=2))
-        probe.initialise(np.array([16.0, 16.0, 8.0, 0.0]))
-        probe.step(np.zeros((32, 32), dtype=np.uint8))
+        probe = TargetTracker(self.template, TrackerParameters(num_particles=2, min_scale=1.0))
+        probe.filter.initialise(np.array([16.0, 16.0, 8.0, 0.0]))
+        probe.process(np.zeros((32, 32), dtype=np.uint8), np.zeros((32, 32), dtype=np.uint8))
 
-    @property
-    def state(self) -> str:
-        """Tracking state for diagnostics: WAITING (no initial box yet) or TRACKING."""
-        return 'TRACKING' if self.tracker.initialised else 'WAITING'
+    def _apply_filter(self, parameters: TrackerParameters) -> None:
+        self.tracker.filter.parameters = parameters
 
-    def _on_set_parameters(self, parameters: list[Parameter]) -> SetParametersResult:
-        """Apply tracker gains at run time after checking them all together."""
-        changes = {p.name: p.value for p in parameters if p.name in _GAINS}
-        if not changes:
-            return SetParametersResult(successful=True)
-        current = self.tracker.parameters
-        candidate = TrackerParameters(
-            **{**current.__dict__, **{k: tuple(v) if k == 'process_noise' else v for k, v in changes.items()}}
-        )
-        try:
-            candidate.validate()
-        except ValueError as err:
-            return SetParametersResult(successful=False, reason=str(err))
-        self.tracker.parameters = candidate
-        self.get_logger().info(f'tracker gains changed: {changes}')
-        return SetParametersResult(successful=True)
+    def _apply_target(self, parameters: TargetParameters) -> None:
+        self.tracker.parameters = parameters
 
     def _on_camera_info(self, msg: CameraInfo) -> None:
         k = np.asarray(msg.k, dtype=np.float64).reshape(3, 3)
         if k[0, 0] > 0 and k[1, 1] > 0:
             self.camera_matrix = k
 
-    def on_image(self, msg: Image | CompressedImage) -> None:
-        """Convert one image message and track on it; bad frames are counted, never fatal."""
-        self.counters.received += 1
-        self.timer_stats.arrived()
+    def _on_mask(self, msg: Image) -> None:
         try:
-            image = message_to_bgr8(msg)
+            mask = image_to_array(msg)
         except ImageConversionError as err:
-            self.counters.reject('conversion')
-            self.get_logger().warn(f'frame rejected: {err}', throttle_duration_sec=5.0)
+            self.get_logger().warn(f'{self.motion_input} mask rejected: {err}', throttle_duration_sec=5.0)
             return
-        self.handle_frame(image, msg.header)
+        self.masks[stamp_ns(msg.header)] = mask if mask.ndim == 2 else mask[..., 0]
+        while len(self.masks) > 4 * self.max_pending:
+            self.masks.popitem(last=False)
+        self._drain()
 
-    def handle_frame(self, image: np.ndarray, header: Any) -> TrackEstimate | None:
-        """Track on one BGR frame and publish the results under ``header``."""
-        stamp = _stamp_ns(header)
+    def _drain(self) -> None:
+        """Track held frames in order, each with its mask, or without once it waited too long."""
+        now = time.monotonic()
+        while self.pending:
+            stamp, arrived, image, header = self.pending[0]
+            mask = self.masks.pop(stamp, None)
+            if mask is None and now - arrived < self.match_timeout and len(self.pending) <= self.max_pending:
+                return
+            self.pending.popleft()
+            if mask is None:
+                self.unmatched += 1
+            self.track(image, header, mask)
+        for stale in [s for s in self.masks if s <= self.last_stamp_ns]:
+            del self.masks[stale]
+
+    def handle_frame(self, image: np.ndarray, header: Any, motion: np.ndarray | None = None) -> TargetResult | None:
+        """Track on one frame: now when its mask is given or none is expected, else once it arrives."""
+        if motion is None and self.motion_input != 'none' and self._waits_for_masks():
+            self.pending.append((stamp_ns(header), time.monotonic(), image, header))
+            self._drain()
+            return None
+        return self.track(image, header, motion)
+
+    def _waits_for_masks(self) -> bool:
+        return self.count_publishers(self.resolve_topic_name(self.motion_input)) > 0 or bool(self.masks)
+
+    def track(self, image: np.ndarray, header: Any, motion: np.ndarray | None) -> TargetResult | None:
+        """Run the tracker on one frame and publish what it found under ``header``."""
+        stamp = stamp_ns(header)
         if stamp <= self.last_stamp_ns:
             self.counters.skipped += 1
             self.get_logger().warn('frame skipped: stamp not newer than the last one', throttle_duration_sec=5.0)
             return None
         self.last_stamp_ns = stamp
-        start = time.perf_counter()
-        edges = edge_map(
-            to_mono8(image), blur_sigma=self.edge_blur, low_threshold=self.canny_low, high_threshold=self.canny_high
-        )
-        if not self.tracker.initialised:
-            if self.init_box[2] <= 0 or self.init_box[3] <= 0:
-                self.counters.processed += 1
-                return None
-            self.tracker.initialise_from_box(tuple(self.init_box))
-        estimate = self.tracker.step(edges)
-        self.last_estimate = estimate
+        gray = to_mono8(image)
+        if motion is not None and motion.shape != gray.shape:
+            self.counters.reject('mask_size')
+            self.get_logger().warn(
+                f'mask {motion.shape} does not match image {gray.shape}: tracking without it', throttle_duration_sec=5.0
+            )
+            motion = None
+        if self.init_box is not None and not self.tracker.filter.initialised:
+            self.tracker.initialise_from_box(self.init_box)
+        result = self.tracker.process(gray, motion)
+        self.last_result = result
         self.counters.processed += 1
-        self._publish(estimate, header, image.shape)
-        self.timer_stats.took(time.perf_counter() - start)
+        if result.tracking:
+            self._publish(result, header, gray.shape)
         if self.debug_pub.get_subscription_count() > 0:
-            label = f'{self.state} conf {estimate.confidence:.2f}'
+            estimate = result.estimate
+            label = (
+                result.status
+                if estimate is None
+                else f'{result.status} conf {estimate.confidence:.2f} motion {estimate.motion_support:.2f}'
+            )
             debug = annotate(
-                image, contour=estimate.contour, box=estimate.box, particles=self.tracker.particles, label=label
+                image,
+                contour=None if estimate is None else estimate.contour,
+                box=None if estimate is None else estimate.box,
+                particles=self.tracker.filter.particles,
+                label=label,
             )
             self.debug_pub.publish(array_to_image(debug, 'bgr8', header))
-        return estimate
+        return result
 
-    def _publish(self, estimate: TrackEstimate, header: Any, shape: tuple[int, ...]) -> None:
+    def _publish(self, result: TargetResult, header: Any, shape: tuple[int, ...]) -> None:
+        estimate = result.estimate
+        assert estimate is not None and self.tracker.filter.particles is not None
         k = self.camera_matrix if self.camera_matrix is not None else default_camera_matrix(shape[1], shape[0])
         position = metric_positions(estimate.state, self.template, k, self.target_width)
-        assert self.tracker.particles is not None
-        cloud = metric_positions(self.tracker.particles, self.template, k, self.target_width)
+        cloud = metric_positions(self.tracker.filter.particles, self.template, k, self.target_width)
         pose = PoseWithCovarianceStamped()
         pose.header = header
         pose.pose.pose.position.x, pose.pose.pose.position.y, pose.pose.pose.position.z = (float(v) for v in position)
@@ -310,34 +285,23 @@ class TrackerNode(Node):
         contour.polygon.points = [Point32(x=float(x), y=float(y), z=0.0) for x, y in estimate.contour]
         self.contour_pub.publish(contour)
 
-    def _publish_diagnostics(self) -> None:
-        extra: dict[str, Any] = {'particles': self.tracker.parameters.num_particles}
-        if self.last_estimate is not None:
-            extra['confidence'] = f'{self.last_estimate.confidence:.3f}'
-            extra['effective_sample_size'] = f'{self.last_estimate.effective_sample_size:.1f}'
-        status = diagnostic_status(self, self.counters, self.timer_stats, state=self.state, extra=extra)
-        publish_diagnostics(self, self.diagnostics_pub, [status])
+    def diagnostics_state(self) -> tuple[str, dict[str, Any]]:
+        extra: dict[str, Any] = {
+            'particles': self.tracker.filter.parameters.num_particles,
+            'frames_unmatched': self.unmatched,
+            'frames_pending': len(self.pending),
+        }
+        result = self.last_result
+        if result is not None and result.estimate is not None:
+            extra['confidence'] = f'{result.estimate.confidence:.3f}'
+            extra['motion_support'] = f'{result.estimate.motion_support:.3f}'
+            extra['effective_sample_size'] = f'{result.estimate.effective_sample_size:.1f}'
+        return self.tracker.status, extra
 
 
 def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run human_tracker tracker_node``; returns the exit code."""
-    rclpy.init(args=args)
-    node = None
-    code = 0
-    try:
-        node = TrackerNode()
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except ValueError as err:
-        # A parameter out of its range or of the wrong kind: refuse to start, say why.
-        rclpy.logging.get_logger('tracker_node').error(f'cannot start: {err}')
-        code = 2
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return code
+    return spin_node(TrackerNode, args)
 
 
 if __name__ == '__main__':

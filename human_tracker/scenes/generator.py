@@ -108,6 +108,11 @@ def _in_ranges(index: int, ranges: tuple[tuple[int, int], ...]) -> bool:
     return any(start <= index < end for start, end in ranges)
 
 
+def _clothes(rng: np.random.Generator) -> np.ndarray:
+    """Clothes darker or brighter than the room's mid-grey, as most clothing is under indoor light."""
+    return rng.uniform(25, 80, size=3) if rng.random() < 0.5 else rng.uniform(175, 235, size=3)
+
+
 def _background(spec: SceneSpec, rng: np.random.Generator) -> np.ndarray:
     """Textured room: smooth colour gradients, random shapes and optional head-like decoys."""
     h, w = spec.height, spec.width
@@ -129,11 +134,19 @@ def _background(spec: SceneSpec, rng: np.random.Generator) -> np.ndarray:
         else:
             end = (x + int(rng.integers(-120, 120)), y + int(rng.integers(-120, 120)))
             cv2.line(image, (x, y), end, colour, int(rng.integers(2, 6)), cv2.LINE_AA)
-    for _ in range(spec.head_like_clutter):
+    # Decoys stand where the person walks (same height, spread across the path), so that a
+    # tracker fitting edges alone can slide onto them when the person passes by.
+    for index in range(spec.head_like_clutter):
+        across = (index + 0.5) / spec.head_like_clutter
         decoy = np.array(
-            [rng.uniform(0.15, 0.85) * w, rng.uniform(0.2, 0.6) * h, spec.head_width * rng.uniform(0.8, 1.2), 0.0]
+            [
+                w * (0.5 + spec.amplitude[0] * 1.6 * (across - 0.5) * 2 + rng.uniform(-0.03, 0.03)),
+                h * (0.38 + rng.uniform(-0.04, 0.04)),
+                spec.head_width * rng.uniform(0.85, 1.15),
+                rng.uniform(-0.1, 0.1),
+            ]
         )
-        _draw_person(image, decoy, rng.integers(30, 226, size=3), rng.integers(30, 226, size=3), 1.0)
+        _draw_person(image, decoy, rng.uniform(60, 200, size=3), _clothes(rng), 1.0)
     return image
 
 
@@ -216,7 +229,7 @@ def render_scene(spec: SceneSpec) -> Iterator[SceneFrame]:
     rng = np.random.default_rng(spec.seed)
     background = _background(spec, rng)
     skin = np.array([95.0, 135.0, 200.0]) + rng.uniform(-15, 15, size=3)
-    shirt = rng.uniform(40, 200, size=3)
+    shirt = _clothes(rng)
     noise_rng = np.random.default_rng(spec.seed + 1)
     motion_time = 0.0
     for index in range(spec.num_frames):
@@ -236,6 +249,34 @@ def render_scene(spec: SceneSpec) -> Iterator[SceneFrame]:
 
 
 SCENES: dict[str, SceneSpec] = {
-    spec.name: spec for spec in (SceneSpec(name='head_basic', seed=1, num_frames=120, clutter=60, noise_sigma=2.0),)
+    spec.name: spec
+    for spec in (
+        SceneSpec(name='head_basic', seed=1, num_frames=120, clutter=60, noise_sigma=2.0),
+        # Head-and-shoulders decoys along the person's path: edges alone are not enough. The
+        # person steps into view at frame 10 (the camera sees the room first).
+        SceneSpec(
+            name='head_cluttered',
+            seed=2,
+            num_frames=120,
+            clutter=30,
+            head_like_clutter=5,
+            noise_sigma=2.0,
+            absent=((0, 10),),
+        ),
+        # Empty room, the person appears still, starts moving at frame 30, stops from 75 to
+        # 105, under a slow lighting drift.
+        SceneSpec(
+            name='head_stop_and_go',
+            seed=3,
+            num_frames=120,
+            clutter=40,
+            noise_sigma=2.0,
+            lighting_drift=0.12,
+            absent=((0, 10),),
+            pauses=((0, 30), (75, 105)),
+        ),
+        # The person leaves the view for frames 45-75 and comes back.
+        SceneSpec(name='head_leave_return', seed=4, num_frames=120, clutter=40, noise_sigma=2.0, absent=((45, 75),)),
+    )
 }
 """The scenes whose bags ship in ``bags/``, by name."""

@@ -19,11 +19,27 @@ edge, which is the paper's model exactly.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import cv2
 import numba
 import numpy as np
 
-__all__ = ['edge_map', 'contour_costs', 'log_likelihood', 'normalised_weights']
+__all__ = ['ContourFit', 'edge_map', 'contour_costs', 'log_likelihood', 'normalised_weights']
+
+
+class ContourFit(NamedTuple):
+    """How each particle's contour fits the image.
+
+    Attributes:
+        costs: ``(P,) float64`` Σ_j φ(j) of eq. 2 (or eq. 3 with motion).
+        matched: ``(P,) int64`` points whose normal met an edge within δ.
+        moving: ``(P,) int64`` of those, points whose edge lies on the motion mask.
+    """
+
+    costs: np.ndarray
+    matched: np.ndarray
+    moving: np.ndarray
 
 
 def edge_map(
@@ -76,6 +92,7 @@ def _contour_costs(
     orientation_tolerance: float,
     costs: np.ndarray,
     matched: np.ndarray,
+    moving: np.ndarray,
 ) -> None:
     height, width = edges.shape
     check_orientation = orientation_tolerance < np.pi / 2
@@ -90,6 +107,7 @@ def _contour_costs(
         s = np.sin(particles[i, 3])
         total = 0.0
         hits = 0
+        moving_hits = 0
         for j in range(num_points):
             px = x + scale * (c * points[j, 0] - s * points[j, 1])
             py = y + scale * (s * points[j, 0] + c * points[j, 1])
@@ -126,14 +144,18 @@ def _contour_costs(
                     break
             if found >= 0.0:
                 phi = found * found
-                if use_motion and motion[zv, zu] == 0:
-                    phi += miss_penalty
+                if use_motion:
+                    if motion[zv, zu] == 0:
+                        phi += miss_penalty
+                    else:
+                        moving_hits += 1
                 total += phi
                 hits += 1
             else:
                 total += miss
         costs[i] = total
         matched[i] = hits
+        moving[i] = moving_hits
 
 
 def contour_costs(
@@ -146,7 +168,7 @@ def contour_costs(
     miss_penalty: float,
     motion: np.ndarray | None = None,
     orientation_tolerance: float = np.pi / 2,
-) -> tuple[np.ndarray, np.ndarray]:
+) -> ContourFit:
     """Σ_j φ(j) for every particle (eq. 2, or eq. 3-4 when a motion mask is given).
 
     Args:
@@ -163,8 +185,8 @@ def contour_costs(
             contour normal for the edge to count; π/2 accepts every edge (the paper's model).
 
     Returns:
-        ``(costs, matched)``: ``(P,) float64`` Σ_j φ(j), and ``(P,) int64`` how many of the
-        N points found an edge within δ.
+        The costs Σ_j φ(j) and, per particle, how many points found an edge within δ and how
+        many of those edges move (0 without a motion mask).
     """
     if search_halfwidth <= 0:
         raise ValueError(f'search_halfwidth (δ) must be > 0, got {search_halfwidth}')
@@ -177,6 +199,7 @@ def contour_costs(
         raise ValueError(f'motion mask shape {motion.shape} differs from edges {edges.shape}')
     costs = np.empty(particles.shape[0], dtype=np.float64)
     matched = np.empty(particles.shape[0], dtype=np.int64)
+    moving = np.empty(particles.shape[0], dtype=np.int64)
     _contour_costs(
         np.ascontiguousarray(edges, dtype=np.uint8),
         np.ascontiguousarray(motion, dtype=np.uint8),
@@ -189,8 +212,9 @@ def contour_costs(
         float(orientation_tolerance),
         costs,
         matched,
+        moving,
     )
-    return costs, matched
+    return ContourFit(costs, matched, moving)
 
 
 def log_likelihood(costs: np.ndarray, likelihood_gain: float) -> np.ndarray:

@@ -34,6 +34,10 @@ class TrackerParameters:
         velocity_damping: a in the AR(2) matrix A (§2.2), in [0, 1].
         process_noise: W of §2.2: std of x, y (pixels), s (fraction), θ (radians).
         initial_spread: diagonal of Σ of §2.5, same units as process_noise.
+        min_scale: Smallest scale s (pixels per template unit: the reference region's width).
+            A contour not much larger than its search band δ fits any edge blob, so the
+            default is 2δ.
+        max_scale: Largest scale s, pixels per template unit.
         seed: Seed of the filter's random generator (a replay is then reproducible).
     """
 
@@ -45,6 +49,8 @@ class TrackerParameters:
     velocity_damping: float = 0.6
     process_noise: tuple[float, float, float, float] = (5.0, 5.0, 0.01, 0.02)
     initial_spread: tuple[float, float, float, float] = (8.0, 8.0, 0.08, 0.08)
+    min_scale: float = 24.0
+    max_scale: float = 2000.0
     seed: int = 0
 
     def validate(self) -> None:
@@ -81,6 +87,7 @@ class TrackEstimate:
         state: ``(4,)`` weighted mean [x, y, s, θ] (pixels, pixels/unit, radians).
         covariance: ``(4, 4)`` weighted covariance of the particle cloud.
         confidence: Weighted fraction of measurement points that found an edge, in [0, 1].
+        motion_support: Weighted fraction of points whose edge moves (0 without motion).
         effective_sample_size: 1 / Σ w² before resampling, in [1, P].
         box: ``(x, y, w, h)`` pixels, bounding box of the template's reference region.
         contour: ``(N, 2)`` image points of the template at ``state``.
@@ -89,6 +96,7 @@ class TrackEstimate:
     state: np.ndarray
     covariance: np.ndarray
     confidence: float
+    motion_support: float
     effective_sample_size: float
     box: tuple[float, float, float, float]
     contour: np.ndarray
@@ -180,7 +188,8 @@ class ContourTracker:
         self.particles, self.previous = predict(
             self.particles, self.previous, params.velocity_damping, np.asarray(params.process_noise), self.rng
         )
-        costs, matched = contour_costs(
+        np.clip(self.particles[:, 2], params.min_scale, params.max_scale, out=self.particles[:, 2])
+        fit = contour_costs(
             edges,
             self.particles,
             self.template.points,
@@ -190,12 +199,13 @@ class ContourTracker:
             motion=motion,
             orientation_tolerance=params.orientation_tolerance,
         )
-        weights = normalised_weights(log_likelihood(costs, params.likelihood_gain))
+        weights = normalised_weights(log_likelihood(fit.costs, params.likelihood_gain))
         state = weighted_estimate(self.particles, weights)
         estimate = TrackEstimate(
             state=state,
             covariance=weighted_covariance(self.particles, weights),
-            confidence=float(weights @ matched) / self.template.num_points,
+            confidence=float(weights @ fit.matched) / self.template.num_points,
+            motion_support=float(weights @ fit.moving) / self.template.num_points,
             effective_sample_size=effective_sample_size(weights),
             box=box_from_state(state, self.template),
             contour=transform_points(self.template.points, state),

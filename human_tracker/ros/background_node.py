@@ -1,0 +1,94 @@
+"""``background_node``: background subtraction (§2.4.1) as a ROS 2 node.
+
+Subscribes ``image``; publishes ``foreground`` (mono8, 255 on target pixels) and, only while
+someone subscribes, ``background`` (mono8 dynamic reference frame). ``~/reset``
+(std_srvs/Trigger) restarts the model from the next frame.
+"""
+
+from __future__ import annotations
+
+import sys
+from typing import Any
+
+import numpy as np
+from sensor_msgs.msg import Image
+from std_srvs.srv import Trigger
+
+from human_tracker.ros.common import RESULT_QOS
+from human_tracker.ros.image_conversion import array_to_image, to_mono8
+from human_tracker.ros.stage import ImageStage, ParameterSpec, spin_node
+from human_tracker.vision.background import BackgroundModel, BackgroundParameters
+
+__all__ = ['BACKGROUND_PARAMETERS', 'BackgroundNode', 'main']
+
+BACKGROUND_PARAMETERS = (
+    ParameterSpec(
+        'learning_rate', 'α: rate of the first-order filter of m and σ² on background pixels, per frame.', 0.0, 1.0
+    ),
+    ParameterSpec(
+        'foreground_learning_rate',
+        'Rate at which pixels judged target are learnt; 0: never (the paper), > 0: ghosts fade.',
+        0.0,
+        1.0,
+    ),
+    ParameterSpec('threshold', 'λ: likelihood-ratio threshold background / target (the paper uses 1).', 1e-6, 1e6),
+    ParameterSpec('intensity_levels', 'n: intensity levels of the uniform target density 1/n.', 2, 65536),
+    ParameterSpec('initial_variance', 'σ² of every pixel when the model starts, grey levels².', 1e-3, 1e5),
+    ParameterSpec(
+        'min_variance', 'Lower bound of σ², grey levels² (keeps the test from calling every pixel target).', 1e-3, 1e5
+    ),
+    ParameterSpec(
+        'max_variance',
+        'Upper bound of σ², grey levels² (keeps the test from calling every pixel background).',
+        1e-3,
+        1e5,
+    ),
+    ParameterSpec('opening_radius', 'Morphological opening radius, pixels (removes isolated detections).', 0, 50),
+    ParameterSpec('closing_radius', 'Morphological closing radius, pixels (fills holes).', 0, 50),
+)
+
+
+class BackgroundNode(ImageStage):
+    """Labels each pixel background or target and publishes the foreground mask."""
+
+    def __init__(self, *, subscribe_image: bool = True, **kwargs: Any) -> None:
+        super().__init__('background_node', subscribe_image=subscribe_image, **kwargs)
+        parameters = self.bind_parameters(BackgroundParameters(), BACKGROUND_PARAMETERS, self._apply)
+        self.model = BackgroundModel(parameters)
+        self.foreground_pub = self.create_publisher(Image, 'foreground', RESULT_QOS)
+        self.background_pub = self.create_publisher(Image, 'background', RESULT_QOS)
+        self.create_service(Trigger, '~/reset', self._on_reset)
+        self.get_logger().info('ready: background subtraction')
+
+    def _apply(self, parameters: BackgroundParameters) -> None:
+        self.model.parameters = parameters
+
+    def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        self.model.reset()
+        response.success = True
+        response.message = 'background model reset: the next frame becomes the reference'
+        self.get_logger().info(response.message)
+        return response
+
+    def handle_frame(self, image: np.ndarray, header: Any) -> np.ndarray:
+        """Foreground mask of one frame, published under ``header``."""
+        mask = self.model.apply(to_mono8(image))
+        self.counters.processed += 1
+        self.foreground_pub.publish(array_to_image(mask, 'mono8', header))
+        if self.background_pub.get_subscription_count() > 0:
+            reference = self.model.reference_frame()
+            if reference is not None:
+                self.background_pub.publish(array_to_image(reference, 'mono8', header))
+        return mask
+
+    def diagnostics_state(self) -> tuple[str, dict[str, Any]]:
+        return 'OK', {'model': 'empty' if self.model.mean is None else 'learning'}
+
+
+def main(args: list[str] | None = None) -> int:
+    """Entry point of ``ros2 run human_tracker background_node``; returns the exit code."""
+    return spin_node(BackgroundNode, args)
+
+
+if __name__ == '__main__':
+    sys.exit(main())

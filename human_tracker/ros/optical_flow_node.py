@@ -1,0 +1,106 @@
+"""``optical_flow_node``: dense optical flow and the motion mask (§2.4.2) as a ROS 2 node.
+
+Subscribes ``image``, ``camera_info`` (optional) and ``angular_velocity`` (optional,
+geometry_msgs/Vector3Stamped: the camera's angular velocity in rad/s, expressed in its
+optical frame, e.g. from a pan-tilt unit's joint rates); publishes ``motion`` (mono8, 255
+where the flow is non-zero after noise filtering) and, only while someone subscribes,
+``flow`` (32FC2, pixels per frame). With an angular velocity, the flow a pure rotation
+induces is compensated before the mask is made.
+"""
+
+from __future__ import annotations
+
+import sys
+from typing import Any
+
+import numpy as np
+from geometry_msgs.msg import Vector3Stamped
+from sensor_msgs.msg import CameraInfo, Image
+
+from human_tracker.ros.common import RESULT_QOS, declare
+from human_tracker.ros.image_conversion import array_to_image, to_mono8
+from human_tracker.ros.stage import ImageStage, ParameterSpec, spin_node, stamp_ns
+from human_tracker.vision.camera import default_camera_matrix
+from human_tracker.vision.optical_flow import FlowParameters, OpticalFlow
+
+__all__ = ['FLOW_PARAMETERS', 'OpticalFlowNode', 'main']
+
+FLOW_PARAMETERS = (
+    ParameterSpec('method', 'Dense flow method: dis_ultrafast, dis_fast, dis_medium or farneback.'),
+    ParameterSpec('min_magnitude', 'Flow below this (pixels/frame) counts as zero.', 0.0, 100.0),
+    ParameterSpec(
+        'min_texture', 'Texture energy below which flow is not trusted (aperture problem); 0: trust all.', 0.0, 1e9
+    ),
+    ParameterSpec('median_size', 'Median filter aperture on the motion mask, pixels.', 0, 31),
+    ParameterSpec('opening_radius', 'Opening radius on the motion mask, pixels.', 0, 50),
+    ParameterSpec('closing_radius', 'Closing radius on the motion mask, pixels.', 0, 50),
+)
+
+
+class OpticalFlowNode(ImageStage):
+    """Computes the flow between consecutive frames and publishes the motion mask."""
+
+    def __init__(self, *, subscribe_image: bool = True, **kwargs: Any) -> None:
+        super().__init__('optical_flow_node', subscribe_image=subscribe_image, **kwargs)
+        parameters = self.bind_parameters(FlowParameters(), FLOW_PARAMETERS, self._apply)
+        self.flow = OpticalFlow(parameters)
+        self.max_rotation_age = declare(
+            self,
+            'angular_velocity_timeout',
+            0.5,
+            'Seconds after which an angular velocity is too old to use.',
+            low=0.0,
+            high=60.0,
+        )
+        self.camera_matrix: np.ndarray | None = None
+        self.angular_velocity: tuple[int, np.ndarray] | None = None
+        self.previous_stamp: int | None = None
+        self.motion_pub = self.create_publisher(Image, 'motion', RESULT_QOS)
+        self.flow_pub = self.create_publisher(Image, 'flow', RESULT_QOS)
+        self.create_subscription(CameraInfo, 'camera_info', self._on_camera_info, RESULT_QOS)
+        self.create_subscription(Vector3Stamped, 'angular_velocity', self._on_angular_velocity, RESULT_QOS)
+        self.get_logger().info(f'ready: optical flow ({parameters.method})')
+
+    def _apply(self, parameters: FlowParameters) -> None:
+        self.flow = OpticalFlow(parameters, previous=self.flow.previous)
+
+    def _on_camera_info(self, msg: CameraInfo) -> None:
+        k = np.asarray(msg.k, dtype=np.float64).reshape(3, 3)
+        if k[0, 0] > 0 and k[1, 1] > 0:
+            self.camera_matrix = k
+
+    def _on_angular_velocity(self, msg: Vector3Stamped) -> None:
+        self.angular_velocity = (stamp_ns(msg.header), np.array([msg.vector.x, msg.vector.y, msg.vector.z]))
+
+    def handle_frame(self, image: np.ndarray, header: Any) -> np.ndarray:
+        """Motion mask of one frame, published under ``header``."""
+        gray = to_mono8(image)
+        stamp = stamp_ns(header)
+        dt = 0.0 if self.previous_stamp is None else (stamp - self.previous_stamp) / 1e9
+        self.previous_stamp = stamp
+        omega = None
+        if self.angular_velocity is not None and abs(stamp - self.angular_velocity[0]) <= self.max_rotation_age * 1e9:
+            omega = self.angular_velocity[1]
+        k = (
+            self.camera_matrix
+            if self.camera_matrix is not None
+            else default_camera_matrix(gray.shape[1], gray.shape[0])
+        )
+        flow, mask = self.flow.apply(gray, camera_matrix=k, angular_velocity=omega, dt=max(dt, 0.0))
+        self.counters.processed += 1
+        self.motion_pub.publish(array_to_image(mask, 'mono8', header))
+        if self.flow_pub.get_subscription_count() > 0:
+            self.flow_pub.publish(array_to_image(flow, '32FC2', header))
+        return mask
+
+    def diagnostics_state(self) -> tuple[str, dict[str, Any]]:
+        return 'OK', {'method': self.flow.parameters.method, 'rotation_compensation': self.angular_velocity is not None}
+
+
+def main(args: list[str] | None = None) -> int:
+    """Entry point of ``ros2 run human_tracker optical_flow_node``; returns the exit code."""
+    return spin_node(OpticalFlowNode, args)
+
+
+if __name__ == '__main__':
+    sys.exit(main())

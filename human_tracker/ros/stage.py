@@ -1,0 +1,203 @@
+"""The base of every image-processing node: input, accounting, diagnostics, parameters.
+
+A stage subscribes to ``image`` (or ``image/compressed``) unless a pipeline hands it frames
+in memory, converts each message once, counts every frame (processed, skipped, rejected),
+publishes ``/diagnostics`` periodically, and binds its algorithm's parameter dataclass to
+declared ROS parameters whose run-time changes are validated before they take effect.
+"""
+
+from __future__ import annotations
+
+import array
+import dataclasses
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import rclpy
+import rclpy.logging
+from diagnostic_msgs.msg import DiagnosticArray
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import CompressedImage, Image
+
+from human_tracker.ros.common import (
+    RESULT_QOS,
+    FrameCounters,
+    StageTimer,
+    declare,
+    diagnostic_status,
+    image_qos,
+    publish_diagnostics,
+)
+from human_tracker.ros.image_conversion import ImageConversionError, message_to_bgr8
+
+__all__ = ['ParameterSpec', 'ImageStage', 'spin_node', 'stamp_ns']
+
+
+def _plain(value: Any) -> Any:
+    """Array parameters arrive as lists or array.array; the dataclasses hold tuples."""
+    return tuple(value) if isinstance(value, (list, tuple, array.array)) else value
+
+
+def stamp_ns(header: Any) -> int:
+    """A header's stamp in nanoseconds."""
+    return int(header.stamp.sec) * 1_000_000_000 + int(header.stamp.nanosec)
+
+
+@dataclass(frozen=True)
+class ParameterSpec:
+    """How one field of an algorithm's parameter dataclass appears as a ROS parameter.
+
+    Attributes:
+        field: Field name in the dataclass (also the ROS parameter name).
+        description: What it means, with unit and the paper's symbol.
+        low: Lower bound for numbers (None: no range declared).
+        high: Upper bound for numbers.
+        runtime: Whether it may change while the node runs.
+    """
+
+    field: str
+    description: str
+    low: float | None = None
+    high: float | None = None
+    runtime: bool = True
+
+
+class ImageStage(Node):
+    """A node that processes camera frames; subclasses implement :meth:`handle_frame`."""
+
+    def __init__(self, name: str, *, subscribe_image: bool = True, **kwargs: Any) -> None:
+        super().__init__(name, **kwargs)
+        self.counters = FrameCounters()
+        self.timer_stats = StageTimer()
+        self._bindings: list[tuple[Sequence[ParameterSpec], Callable[[], Any], Callable[[Any], None]]] = []
+        self.diagnostics_pub = self.create_publisher(DiagnosticArray, '/diagnostics', RESULT_QOS)
+        period = declare(
+            self,
+            'diagnostics_period',
+            1.0,
+            'Seconds between /diagnostics messages.',
+            low=0.05,
+            high=60.0,
+            read_only=True,
+        )
+        self.create_timer(period, self._publish_diagnostics)
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        if subscribe_image:
+            transport = declare(
+                self,
+                'image_transport',
+                'raw',
+                'Image input: raw (image) or compressed (image/compressed).',
+                read_only=True,
+            )
+            if transport not in ('raw', 'compressed'):
+                raise ValueError(f"image_transport must be 'raw' or 'compressed', got {transport!r}")
+            qos = image_qos(self)
+            if transport == 'compressed':
+                self.create_subscription(CompressedImage, 'image/compressed', self.on_image, qos)
+            else:
+                self.create_subscription(Image, 'image', self.on_image, qos)
+
+    def bind_parameters(self, instance: Any, specs: Sequence[ParameterSpec], apply: Callable[[Any], None]) -> Any:
+        """Declare ``specs`` from the dataclass ``instance``'s defaults; return it with the declared values.
+
+        Run-time changes build a new instance, call its ``validate()`` and, if it passes,
+        hand it to ``apply``; otherwise the change is refused with the validation message.
+        """
+        values = {}
+        for spec in specs:
+            default = getattr(instance, spec.field)
+            if isinstance(default, tuple):
+                default = list(default)
+            value = declare(
+                self, spec.field, default, spec.description, low=spec.low, high=spec.high, read_only=not spec.runtime
+            )
+            values[spec.field] = tuple(value) if isinstance(default, list) else value
+        bound = dataclasses.replace(instance, **values)
+        bound.validate()
+        current = {'value': bound}
+
+        def commit(new: Any) -> None:
+            current['value'] = new
+            apply(new)
+
+        self._bindings.append((specs, lambda: current['value'], commit))
+        return bound
+
+    def _on_set_parameters(self, parameters: list[Parameter]) -> SetParametersResult:
+        for specs, get, commit in self._bindings:
+            names = {spec.field for spec in specs}
+            changes = {p.name: _plain(p.value) for p in parameters if p.name in names}
+            if not changes:
+                continue
+            candidate = dataclasses.replace(get(), **changes)
+            try:
+                candidate.validate()
+            except ValueError as err:
+                return SetParametersResult(successful=False, reason=str(err))
+            commit(candidate)
+            self.get_logger().info(f'parameters changed: {changes}')
+        return SetParametersResult(successful=True)
+
+    def on_image(self, msg: Image | CompressedImage) -> None:
+        """Convert one image message and process it; a bad frame is counted and logged, never fatal."""
+        try:
+            image = message_to_bgr8(msg)
+        except ImageConversionError as err:
+            self.counters.received += 1
+            self.counters.reject('conversion')
+            self.get_logger().warn(f'frame rejected: {err}', throttle_duration_sec=5.0)
+            return
+        self.process_frame(image, msg.header)
+
+    def process_frame(self, image: np.ndarray, header: Any, **cues: Any) -> object:
+        """Count, time and process one converted frame (the pipeline calls this directly)."""
+        self.counters.received += 1
+        self.timer_stats.arrived()
+        start = time.perf_counter()
+        result = self.handle_frame(image, header, **cues)
+        self.timer_stats.took(time.perf_counter() - start)
+        return result
+
+    def handle_frame(self, image: np.ndarray, header: Any, **cues: Any) -> object:
+        """Process one ``(H, W, 3) uint8`` BGR frame stamped with ``header``; ``cues`` come from a pipeline.
+
+        Implementations count it as processed or skipped in ``self.counters``.
+        """
+        raise NotImplementedError
+
+    def diagnostics_state(self) -> tuple[str, dict[str, Any]]:
+        """The state word and extra key-values for /diagnostics."""
+        return 'OK', {}
+
+    def _publish_diagnostics(self) -> None:
+        state, extra = self.diagnostics_state()
+        status = diagnostic_status(self, self.counters, self.timer_stats, state=state, extra=extra)
+        publish_diagnostics(self, self.diagnostics_pub, [status])
+
+
+def spin_node(factory: Any, args: list[str] | None = None) -> int:
+    """Init rclpy, spin the node made by ``factory`` until shutdown; a bad parameter exits 2."""
+    rclpy.init(args=args)
+    node = None
+    code = 0
+    try:
+        node = factory()
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except ValueError as err:
+        # A parameter out of its range or of the wrong kind: refuse to start, say why.
+        rclpy.logging.get_logger(getattr(factory, '__name__', 'node')).error(f'cannot start: {err}')
+        code = 2
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return code

@@ -1,0 +1,164 @@
+"""Background subtraction after Donohoe et al., with the paper's modification (§2.4.1).
+
+Each pixel's intensity i_k is tested between two hypotheses:
+
+- target:      p(i | target) = 1 / n, uniform over the n intensity levels;
+- background:  p(i | background) = N(m_{k-1}, σ²_{k-1}), m the dynamic reference frame.
+
+The pixel is background when ``p(i | background) / p(i | target) > λ`` (``threshold``), that
+is when ``(i - m)² < 2 σ² ln(n / (λ sqrt(2π σ²)))``. Then, and only then (the paper's
+modification, so a slow hand or a still forearm is not absorbed into the background),
+``m_k = α i_k + (1 - α) m_{k-1}`` and likewise ``σ²_k = α (i_k - m_{k-1})² + (1 - α) σ²_{k-1}``.
+σ² is kept within ``[min_variance, max_variance]`` so the test cannot degenerate (σ → 0
+would call every pixel target; σ → ∞ every pixel background). A morphological opening and
+closing clean the mask.
+
+With that modification a pixel judged target is never relearnt, so an object that was in
+the reference frame and then left (a person standing there when the node started) stays
+foreground for ever: a "ghost". ``foreground_learning_rate`` (0 by default, the paper's
+rule) optionally updates target pixels too, much more slowly than background ones, so that
+ghosts fade; it also slowly absorbs a person who stands still for long.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+__all__ = ['BackgroundParameters', 'BackgroundModel', 'background_decision']
+
+
+@dataclass
+class BackgroundParameters:
+    """Constants of the background model.
+
+    Attributes:
+        learning_rate: α of the first-order filter, in [0, 1] (per frame).
+        foreground_learning_rate: Rate at which pixels judged target are learnt, in [0, 1];
+            0 is the paper's rule (never).
+        threshold: λ of the likelihood-ratio test (the paper selects 1).
+        intensity_levels: n, number of intensity levels (256 for 8-bit images).
+        initial_variance: σ² of every pixel before any update, grey levels².
+        min_variance: Lower bound of σ², grey levels².
+        max_variance: Upper bound of σ², grey levels².
+        opening_radius: Radius (pixels) of the opening that removes isolated false
+            detections; 0 disables it.
+        closing_radius: Radius (pixels) of the closing that fills small holes; 0 disables it.
+    """
+
+    learning_rate: float = 0.05
+    foreground_learning_rate: float = 0.0
+    threshold: float = 1.0
+    intensity_levels: int = 256
+    initial_variance: float = 25.0
+    min_variance: float = 4.0
+    max_variance: float = 400.0
+    opening_radius: int = 1
+    closing_radius: int = 3
+
+    def validate(self) -> None:
+        """Raise ValueError naming the first parameter out of its range."""
+        checks = [
+            (0.0 <= self.learning_rate <= 1.0, f'learning_rate (α) must be in [0, 1], got {self.learning_rate}'),
+            (
+                0.0 <= self.foreground_learning_rate <= 1.0,
+                f'foreground_learning_rate must be in [0, 1], got {self.foreground_learning_rate}',
+            ),
+            (self.threshold > 0, f'threshold (λ) must be > 0, got {self.threshold}'),
+            (self.intensity_levels >= 2, f'intensity_levels (n) must be >= 2, got {self.intensity_levels}'),
+            (
+                0 < self.min_variance <= self.max_variance,
+                f'need 0 < min_variance <= max_variance, got {self.min_variance}, {self.max_variance}',
+            ),
+            (self.initial_variance > 0, f'initial_variance must be > 0, got {self.initial_variance}'),
+            (self.opening_radius >= 0 and self.closing_radius >= 0, 'morphology radii must be >= 0'),
+        ]
+        for ok, message in checks:
+            if not ok:
+                raise ValueError(message)
+
+
+def background_decision(
+    intensity: np.ndarray,
+    mean: np.ndarray,
+    variance: np.ndarray,
+    threshold: float = 1.0,
+    intensity_levels: int = 256,
+) -> np.ndarray:
+    """Steps 1-2 of §2.4.1: True where the pixel is background.
+
+    Args:
+        intensity: i_k, any shape, grey levels.
+        mean: m_{k-1}, same shape.
+        variance: σ²_{k-1}, same shape, grey levels² (> 0).
+        threshold: λ.
+        intensity_levels: n.
+
+    Returns:
+        Boolean array: ``N(i; m, σ²) / (1/n) > λ``.
+    """
+    variance = np.asarray(variance, dtype=np.float32)
+    squared = np.square(np.asarray(intensity, dtype=np.float32) - mean)
+    # log N(i; m, σ²) + log n > log λ, rearranged so no exponential can underflow.
+    bound = 2.0 * variance * (np.log(intensity_levels / threshold) - 0.5 * np.log(2.0 * np.pi * variance))
+    return squared < bound
+
+
+def _disk(radius: int) -> np.ndarray:
+    return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius + 1, 2 * radius + 1))
+
+
+@dataclass
+class BackgroundModel:
+    """The dynamic reference frame m and noise variance σ² of every pixel.
+
+    ``apply(gray)`` classifies a frame, updates the model on its background pixels and
+    returns the cleaned foreground mask. The fields are the model's whole state.
+    """
+
+    parameters: BackgroundParameters = field(default_factory=BackgroundParameters)
+    mean: np.ndarray | None = None
+    variance: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        self.parameters.validate()
+
+    def reset(self) -> None:
+        """Forget the background; the next frame becomes the reference."""
+        self.mean = None
+        self.variance = None
+
+    def apply(self, gray: np.ndarray) -> np.ndarray:
+        """Classify ``gray`` and update the model (step 3).
+
+        Args:
+            gray: ``(H, W)`` intensity image (uint8 or float).
+
+        Returns:
+            ``(H, W) uint8`` foreground mask, 255 on target pixels, 0 on background.
+        """
+        p = self.parameters
+        frame = np.asarray(gray, dtype=np.float32)
+        if self.mean is None or self.variance is None or self.mean.shape != frame.shape:
+            # The first frame (or a new image size) is taken as background.
+            self.mean = frame.copy()
+            self.variance = np.full(frame.shape, p.initial_variance, dtype=np.float32)
+            return np.zeros(frame.shape, dtype=np.uint8)
+        background = background_decision(frame, self.mean, self.variance, p.threshold, p.intensity_levels)
+        difference = frame - self.mean
+        alpha = np.where(background, np.float32(p.learning_rate), np.float32(p.foreground_learning_rate))
+        self.mean += alpha * difference
+        self.variance += alpha * (np.square(difference) - self.variance)
+        np.clip(self.variance, p.min_variance, p.max_variance, out=self.variance)
+        mask = np.where(background, 0, 255).astype(np.uint8)
+        if p.opening_radius:
+            mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, _disk(p.opening_radius))
+        if p.closing_radius:
+            mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, _disk(p.closing_radius))
+        return mask
+
+    def reference_frame(self) -> np.ndarray | None:
+        """The dynamic reference frame m as ``uint8`` (the background estimate), or None."""
+        return None if self.mean is None else np.clip(self.mean, 0, 255).astype(np.uint8)

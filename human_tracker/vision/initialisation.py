@@ -1,0 +1,131 @@
+"""Initial state X_0 from the moving region (§2.5).
+
+- :func:`state_from_moments` (§2.5.1, after background subtraction): the blob's centroid
+  gives (x, y), the direction of its principal axis gives θ, and its width across that axis
+  gives the scale.
+- :func:`state_from_scan` (§2.5.2, after optical flow, for the head): scan the mask from the
+  top for the first moving row (the top of the head), take the scale from the first local
+  maximum of the row widths going down (the head's width, before the neck narrows), and
+  place the template so its reference region hangs from that top row; θ = θ_upright. Row
+  widths are extents (leftmost to rightmost moving pixel).
+
+The particle cloud is then drawn from N(X_0, Σ) by the tracker (``initial_spread``).
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from human_tracker.vision.templates import ContourTemplate
+
+__all__ = ['largest_blob', 'state_from_moments', 'state_from_scan', 'first_local_maximum']
+
+
+def largest_blob(mask: np.ndarray, min_area: int = 1) -> np.ndarray | None:
+    """The largest 8-connected region of a binary mask as a boolean image, or None if none."""
+    count, labels, stats, _ = cv2.connectedComponentsWithStats((mask > 0).astype(np.uint8), connectivity=8)
+    if count <= 1:
+        return None
+    areas = stats[1:, cv2.CC_STAT_AREA]
+    best = int(np.argmax(areas))
+    if areas[best] < min_area:
+        return None
+    return labels == best + 1
+
+
+def state_from_moments(mask: np.ndarray, template: ContourTemplate, min_area: int = 50) -> np.ndarray | None:
+    """X_0 = [x, y, s, θ] from the inertial moments of the largest blob (§2.5.1).
+
+    The blob is taken as the template's reference region (a hand, or a head alone): its
+    centroid is the region's centre, θ the angle of its major axis from the image vertical,
+    and its width ``4 sqrt(λ_minor)`` (the full width of a uniform ellipse) over the region's
+    width in template units gives s.
+
+    Returns:
+        The state, or None when no blob of ``min_area`` pixels exists.
+    """
+    blob = largest_blob(mask, min_area)
+    if blob is None:
+        return None
+    ys, xs = np.nonzero(blob)
+    cx, cy = xs.mean(), ys.mean()
+    covariance = np.cov(np.stack([xs, ys]).astype(np.float64))
+    eigenvalues, eigenvectors = np.linalg.eigh(covariance)
+    major = eigenvectors[:, 1]
+    if major[1] < 0:  # orient the major axis downwards so θ is near 0 for an upright blob
+        major = -major
+    theta = float(np.arctan2(-major[0], major[1]))
+    width = 4.0 * np.sqrt(max(eigenvalues[0], 1e-12))
+    rx, ry, rw, rh = template.reference_box
+    scale = width / rw
+    # The reference region's centre sits at template offset (rx + rw/2, ry + rh/2).
+    centre = np.array([rx + rw / 2, ry + rh / 2]) * scale
+    c, s = np.cos(theta), np.sin(theta)
+    offset = np.array([c * centre[0] - s * centre[1], s * centre[0] + c * centre[1]])
+    return np.array([cx - offset[0], cy - offset[1], scale, theta])
+
+
+def first_local_maximum(values: np.ndarray) -> int | None:
+    """Index of the first local maximum of a sequence (a plateau counts at its start).
+
+    A maximum must be followed by a strict decrease; a sequence that only grows has none.
+    """
+    values = np.asarray(values, dtype=np.float64)
+    start = 0  # first index of the current rise's top (a plateau counts from its start)
+    for i in range(1, len(values)):
+        if values[i] > values[i - 1]:
+            start = i
+        elif values[i] < values[i - 1]:
+            return start
+    return None
+
+
+def state_from_scan(
+    mask: np.ndarray,
+    template: ContourTemplate,
+    *,
+    upright_angle: float = 0.0,
+    min_row_pixels: int = 3,
+    smoothing: int = 5,
+    min_area: int = 50,
+) -> np.ndarray | None:
+    """X_0 = [x, y, s, θ_upright] by scanning the moving region from the top (§2.5.2).
+
+    Args:
+        mask: ``(H, W)`` motion or foreground mask (non-zero: moving).
+        template: The head template (its reference region is the head).
+        upright_angle: θ_upright, radians.
+        min_row_pixels: A row with fewer moving pixels is noise, not the top of the head.
+        smoothing: Rows averaged (moving mean) before looking for the width maximum.
+        min_area: Smallest blob, pixels, taken as a person.
+
+    Returns:
+        The state, or None when nothing moves or no width maximum is found.
+    """
+    blob = largest_blob(mask, min_area)
+    if blob is None:
+        return None
+    # Row width as the extent from the leftmost to the rightmost moving pixel: a flow mask
+    # holds the textured parts of the silhouette, not always its flat interior.
+    has = blob.any(axis=1)
+    first = np.argmax(blob, axis=1)
+    last = blob.shape[1] - 1 - np.argmax(blob[:, ::-1], axis=1)
+    widths = np.where(has, last - first + 1, 0).astype(np.float64)
+    rows = np.nonzero(widths >= min_row_pixels)[0]
+    if rows.size == 0:
+        return None
+    top = int(rows[0])
+    profile = widths[top:]
+    if smoothing > 1:
+        profile = np.convolve(profile, np.ones(smoothing) / smoothing, mode='same')
+    peak = first_local_maximum(profile)
+    if peak is None:
+        return None
+    head_width = float(profile[peak])
+    row = top + peak
+    centre_x = 0.5 * float(first[row] + last[row]) if has[row] else 0.5 * float(first[top] + last[top])
+    rx, ry, rw, rh = template.reference_box
+    scale = head_width / rw
+    # The reference region's top edge (template y = ry) is the first moving row.
+    return np.array([centre_x - scale * (rx + rw / 2), top - scale * ry, scale, upright_angle])

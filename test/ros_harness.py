@@ -19,9 +19,20 @@ def environment() -> dict[str, str]:
 
 
 def replay_and_collect(
-    node: NodeProcess, bag: Path, camera_topic: str, tmp: Path, expected: int, rate: float = 2.0
+    nodes: NodeProcess | list[NodeProcess],
+    bag: Path,
+    camera_topic: str,
+    tmp: Path,
+    expected: int,
+    rate: float = 2.0,
+    diagnostics_of: str = '',
 ) -> PoseCollector:
-    """Start ``node``, replay ``bag`` into it, and return what it published (all frames or 20 s)."""
+    """Start ``nodes``, replay ``bag`` into them, return what was published (all frames or 20 s).
+
+    Every node must subscribe to the camera topic. With ``diagnostics_of``, ``expected`` is the
+    number of frames that node must report processed in /diagnostics (instead of poses).
+    """
+    nodes = nodes if isinstance(nodes, list) else [nodes]
     env = environment()
     rclpy.init()
     collector = PoseCollector()
@@ -29,26 +40,36 @@ def replay_and_collect(
     executor.add_node(collector)
     player = NodeProcess(
         'human_tracker.ros.bag_play',
-        [str(bag), '--rate', str(rate), '--wait-for-subscribers', camera_topic, '1'],
+        [str(bag), '--rate', str(rate), '--wait-for-subscribers', camera_topic, str(len(nodes))],
         env,
         tmp / 'bag_play.log',
     )
     try:
-        node.start()
-        assert collector.wait_for_publisher(executor, 60.0), node.output()
+        for node in nodes:
+            node.start()
+        assert collector.wait_for_publisher(executor, 60.0), '\n'.join(node.output() for node in nodes)
         player.start()
         deadline = time.monotonic() + 60.0
         while player.process.poll() is None and time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.05)
         assert player.wait(10.0) == 0, player.output()
         deadline = time.monotonic() + 20.0
-        while len(collector.poses) < expected and time.monotonic() < deadline:
+        while time.monotonic() < deadline:
+            if diagnostics_of:
+                done = collector.diagnostics.get(diagnostics_of, {}).get('frames_processed') == str(expected)
+            else:
+                done = len(collector.poses) >= expected
+            if done:
+                break
             executor.spin_once(timeout_sec=0.05)
+        if diagnostics_of:
+            collector.spin_until_diagnostics(executor, diagnostics_of, 5.0)
     finally:
-        code = node.stop()
+        codes = [node.stop() for node in nodes]
         player.stop()
         executor.shutdown()
         collector.destroy_node()
         rclpy.try_shutdown()
-    assert code == 0, f'node exited with {code}:\n{node.output()}'
+    for node, code in zip(nodes, codes, strict=True):
+        assert code == 0, f'{node.command} exited with {code}:\n{node.output()}'
     return collector

@@ -6,6 +6,7 @@ import time
 from typing import Any
 
 import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PolygonStamped, PoseWithCovarianceStamped
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
@@ -21,19 +22,36 @@ def _stamp_ns(header: Any) -> int:
 
 
 class PoseCollector(Node):
-    """Subscribes ``pose`` and ``contour`` (reliable, deep queue) and stores them by stamp."""
+    """Subscribes ``pose`` and ``contour`` (reliable, deep queue) and stores them by stamp.
+
+    It also keeps the latest ``/diagnostics`` values of every node, by status name.
+    """
 
     def __init__(self, namespace: str = '') -> None:
         super().__init__('pose_collector', namespace=namespace)
         self.poses: dict[int, PoseWithCovarianceStamped] = {}
         self.contours: dict[int, np.ndarray] = {}
         self.frame_ids: set[str] = set()
+        self.diagnostics: dict[str, dict[str, str]] = {}
         self.create_subscription(PoseWithCovarianceStamped, 'pose', self._on_pose, _KEEP_ALL)
+        self.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics, _KEEP_ALL)
         self.create_subscription(PolygonStamped, 'contour', self._on_contour, _KEEP_ALL)
 
     def _on_pose(self, msg: PoseWithCovarianceStamped) -> None:
         self.poses[_stamp_ns(msg.header)] = msg
         self.frame_ids.add(msg.header.frame_id)
+
+    def _on_diagnostics(self, msg: DiagnosticArray) -> None:
+        for status in msg.status:
+            self.diagnostics[status.name] = {kv.key: kv.value for kv in status.values}
+
+    def spin_until_diagnostics(self, executor: SingleThreadedExecutor, name: str, timeout: float) -> dict[str, str]:
+        """Spin until a /diagnostics status named ``name`` arrives after this call; return its values."""
+        self.diagnostics.pop(name, None)
+        deadline = time.monotonic() + timeout
+        while name not in self.diagnostics and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+        return self.diagnostics.get(name, {})
 
     def _on_contour(self, msg: PolygonStamped) -> None:
         self.contours[_stamp_ns(msg.header)] = np.array([[p.x, p.y] for p in msg.polygon.points], dtype=np.float64)

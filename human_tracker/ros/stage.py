@@ -36,7 +36,10 @@ from human_tracker.ros.common import (
 )
 from human_tracker.ros.image_conversion import ImageConversionError, message_to_bgr8
 
-__all__ = ['ParameterSpec', 'ImageStage', 'spin_node', 'stamp_ns']
+__all__ = ['DEFERRED', 'ParameterSpec', 'ImageStage', 'spin_node', 'stamp_ns']
+
+DEFERRED = object()
+"""Returned by ``handle_frame`` for a frame held for later (it is timed when processed)."""
 
 
 def _plain(value: Any) -> Any:
@@ -162,7 +165,8 @@ class ImageStage(Node):
         self.timer_stats.arrived()
         start = time.perf_counter()
         result = self.handle_frame(image, header, **cues)
-        self.timer_stats.took(time.perf_counter() - start)
+        if result is not DEFERRED:
+            self.timer_stats.took(time.perf_counter() - start)
         return result
 
     def handle_frame(self, image: np.ndarray, header: Any, **cues: Any) -> object:

@@ -21,7 +21,7 @@ from sensor_msgs.msg import CameraInfo, Image
 from human_tracker.drawing import annotate
 from human_tracker.ros.common import RESULT_QOS, declare
 from human_tracker.ros.image_conversion import ImageConversionError, array_to_image, image_to_array, to_mono8
-from human_tracker.ros.stage import ImageStage, ParameterSpec, spin_node, stamp_ns
+from human_tracker.ros.stage import DEFERRED, ImageStage, ParameterSpec, spin_node, stamp_ns
 from human_tracker.vision.camera import default_camera_matrix, metric_positions
 from human_tracker.vision.target import TargetParameters, TargetResult, TargetTracker
 from human_tracker.vision.templates import make_template
@@ -76,6 +76,12 @@ TARGET_PARAMETERS = (
     ),
     ParameterSpec('hypothesis_samples', 'States scored around a motion hypothesis.', 1, 100000),
     ParameterSpec('lost_confidence', 'Fraction of contour points on edges below which a frame is weak.', 0.0, 1.0),
+    ParameterSpec(
+        'lost_motion_support',
+        'Fraction of contour points on the motion mask below which a frame is weak; 0: off.',
+        0.0,
+        1.0,
+    ),
     ParameterSpec('lost_frames', 'Consecutive weak frames after which the target is lost.', 1, 100000),
     ParameterSpec('edge_blur_sigma', 'Gaussian pre-filter of the edge detector, pixels.', 0.0, 20.0),
     ParameterSpec('canny_low', 'Canny low hysteresis threshold.', 0.0, 10000.0),
@@ -208,16 +214,18 @@ class TrackerNode(ImageStage):
             self.pending.popleft()
             if mask is None:
                 self.unmatched += 1
+            start = time.perf_counter()
             self.track(image, header, mask)
+            self.timer_stats.took(time.perf_counter() - start)
         for stale in [s for s in self.masks if s <= self.last_stamp_ns]:
             del self.masks[stale]
 
-    def handle_frame(self, image: np.ndarray, header: Any, motion: np.ndarray | None = None) -> TargetResult | None:
+    def handle_frame(self, image: np.ndarray, header: Any, motion: np.ndarray | None = None) -> object:
         """Track on one frame: now when its mask is given or none is expected, else once it arrives."""
         if motion is None and self.motion_input != 'none' and self._waits_for_masks():
             self.pending.append((stamp_ns(header), time.monotonic(), image, header))
             self._drain()
-            return None
+            return DEFERRED
         return self.track(image, header, motion)
 
     def _waits_for_masks(self) -> bool:

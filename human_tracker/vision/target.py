@@ -11,8 +11,11 @@ filter has no target (WAITING, LOST) and the score reaches ``init_confidence``. 
 the filter elsewhere when its *moving* score (points whose edge lies on the motion mask)
 beats the current estimate's by ``switch_margin`` while fitting at least ``lost_confidence``
 of its points: the person came back, or the filter slid onto still clutter that fits the
-template as well as the person does. The target is lost when, for
-``lost_frames`` frames in a row, fewer than ``lost_confidence`` of the points find an edge.
+template as well as the person does. The target is lost when, for ``lost_frames`` frames in
+a row, fewer than ``lost_confidence`` of the points find an edge, or (with
+``lost_motion_support`` > 0) fewer than that fraction lie on the motion mask. The second
+test suits the background cue, where a person who stands still is still foreground; with
+optical flow a still person does not move, so it stays off there.
 """
 
 from __future__ import annotations
@@ -57,6 +60,8 @@ class TargetParameters:
             score to restart the filter there.
         hypothesis_samples: States drawn around X_0 (twice ``initial_spread``) to score it.
         lost_confidence: Fraction of contour points finding an edge below which a frame is weak.
+        lost_motion_support: Fraction of contour points on the motion mask below which a
+            frame with a mask is weak; 0 disables the test (use it with the foreground cue).
         lost_frames: Consecutive weak frames after which the target is lost.
         edge_blur_sigma: Gaussian pre-filter of the edge detector, pixels.
         canny_low: Canny low threshold.
@@ -72,6 +77,7 @@ class TargetParameters:
     switch_margin: float = 0.2
     hypothesis_samples: int = 128
     lost_confidence: float = 0.3
+    lost_motion_support: float = 0.0
     lost_frames: int = 5
     edge_blur_sigma: float = 1.5
     canny_low: float = 40.0
@@ -91,8 +97,11 @@ class TargetParameters:
             )
         if self.hypothesis_samples < 1:
             raise ValueError(f'hypothesis_samples must be >= 1, got {self.hypothesis_samples}')
-        if not 0.0 <= self.lost_confidence <= 1.0:
-            raise ValueError(f'lost_confidence must be in [0, 1], got {self.lost_confidence}')
+        if not 0.0 <= self.lost_confidence <= 1.0 or not 0.0 <= self.lost_motion_support <= 1.0:
+            raise ValueError(
+                'lost_confidence and lost_motion_support must be in [0, 1], '
+                f'got {self.lost_confidence}, {self.lost_motion_support}'
+            )
         if self.lost_frames < 1:
             raise ValueError(f'lost_frames must be >= 1, got {self.lost_frames}')
         if self.canny_low < 0 or self.canny_high < self.canny_low:
@@ -229,7 +238,10 @@ class TargetTracker:
             self.status, self.weak_frames, initialised = TRACKING, 0, True
         if estimate is None:
             return TargetResult(self.status, None)
-        self.weak_frames = self.weak_frames + 1 if estimate.confidence < p.lost_confidence else 0
+        weak = estimate.confidence < p.lost_confidence
+        if motion is not None and estimate.motion_support < p.lost_motion_support:
+            weak = True
+        self.weak_frames = self.weak_frames + 1 if weak else 0
         if self.weak_frames >= p.lost_frames:
             self.status = LOST
         elif self.weak_frames == 0 and self.status == LOST:

@@ -51,6 +51,13 @@ def generate_launch_description() -> LaunchDescription:
                 'FASTRTPS_DEFAULT_PROFILES_FILE', os.path.join(share, 'config', 'fastdds_large_shm.xml')
             ),
             Node(executable='pipeline', condition=IfCondition(LaunchConfiguration('single_process')), **common),
-            Node(executable='tracker_node', condition=UnlessCondition(LaunchConfiguration('single_process')), **common),
+            Node(
+                executable='background_node', condition=UnlessCondition(LaunchConfiguration('single_process')), **common
+            ),
+            Node(
+                executable='tracker_node',
+                condition=UnlessCondition(LaunchConfiguration('single_process')),
+                **{**common, 'parameters': [LaunchConfiguration('params_file'), {'motion_input': 'foreground'}]},
+            ),
         ]
     )

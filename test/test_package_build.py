@@ -13,7 +13,7 @@ import pytest
 from conftest import REPO
 from ros_harness import environment
 
-EXECUTABLES = ('tracker_node', 'pipeline', 'bag_play', 'human_tracker')
+EXECUTABLES = ('tracker_node', 'pipeline', 'background_node', 'optical_flow_node', 'bag_play', 'human_tracker')
 IGNORE = shutil.ignore_patterns('.git', '.venv', 'out', 'build', 'install', 'log', '__pycache__', '.*_cache')
 
 
@@ -86,7 +86,7 @@ def test_command_line_tools_start(install_space: Path, name: str) -> None:
     assert process.returncode == 0 and 'usage' in out, out
 
 
-@pytest.mark.parametrize('name', ['tracker_node', 'pipeline'])
+@pytest.mark.parametrize('name', ['tracker_node', 'pipeline', 'background_node', 'optical_flow_node'])
 def test_nodes_start_and_stop_cleanly(install_space: Path, name: str, tmp_path: Path) -> None:
     log = (tmp_path / 'node.log').open('w+')
     script = f'source {install_space}/setup.bash && exec {install_space}/human_tracker/lib/human_tracker/{name}'

@@ -11,7 +11,7 @@ import rclpy
 from conftest import REPO
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
-from rclpy.parameter import Parameter
+from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
 from ros_harness import environment, replay_and_collect
 
@@ -112,22 +112,42 @@ def _set(client: AsyncParameterClient, node: Node, name: str, value) -> SetParam
     return future.result().results[0]
 
 
-def test_gains_change_at_run_time_and_bad_values_are_refused(tmp_path) -> None:
-    tracker = NodeProcess('human_tracker.ros.tracker_node', [], environment(), tmp_path / 'tracker.log').start()
+def _get(client: AsyncParameterClient, node: Node, name: str) -> object:
+    future = client.get_parameters([name])
+    rclpy.spin_until_future_complete(node, future, timeout_sec=10.0)
+    return parameter_value_to_python(future.result().values[0])
+
+
+def test_params_file_loads_and_gains_change_at_run_time(tmp_path) -> None:
+    """The shipped YAML with one gain edited, loaded with --params-file; then changed live."""
+    params = tmp_path / 'params.yaml'
+    params.write_text(
+        (REPO / 'config' / 'human_tracker.yaml')
+        .read_text()
+        .replace('likelihood_gain: 0.01 ', 'likelihood_gain: 0.013 ')
+    )
+    tracker = NodeProcess(
+        'human_tracker.ros.tracker_node',
+        ['--ros-args', '--params-file', str(params)],
+        environment(),
+        tmp_path / 'tracker.log',
+    )
+    tracker.start()
     rclpy.init()
     node = Node('parameter_test')
     try:
         client = AsyncParameterClient(node, 'tracker_node')
         assert client.wait_for_services(timeout_sec=60.0), tracker.output()
+        assert _get(client, node, 'likelihood_gain') == pytest.approx(0.013)
+        assert _get(client, node, 'motion_mode') == 'weighted'
         refused = _set(client, node, 'likelihood_gain', -1.0)
         assert not refused.successful and refused.reason
         refused = _set(client, node, 'process_noise', [1.0, 2.0])
         assert not refused.successful and 'process_noise' in refused.reason
-        accepted = _set(client, node, 'likelihood_gain', 0.02)
-        assert accepted.successful
-        future = client.get_parameters(['likelihood_gain'])
-        rclpy.spin_until_future_complete(node, future, timeout_sec=10.0)
-        assert future.result().values[0].double_value == pytest.approx(0.02)
+        refused = _set(client, node, 'motion_mode', 'telepathy')
+        assert not refused.successful and 'motion_mode' in refused.reason
+        assert _set(client, node, 'likelihood_gain', 0.02).successful
+        assert _get(client, node, 'likelihood_gain') == pytest.approx(0.02)
     finally:
         node.destroy_node()
         rclpy.try_shutdown()

@@ -98,7 +98,7 @@ def write_scene_bag(
     *,
     compressed: bool = True,
     storage: str = 'mcap',
-    jpeg_quality: int = 75,
+    jpeg_quality: int = 65,
     target: str = 'head',
 ) -> Path:
     """Render ``spec`` and record it as a rosbag2 bag.

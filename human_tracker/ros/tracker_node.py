@@ -166,7 +166,9 @@ class TrackerNode(ImageStage):
         self.contour_pub = self.create_publisher(PolygonStamped, 'contour', RESULT_QOS)
         self.debug_pub = self.create_publisher(Image, 'debug_image', RESULT_QOS)
         self.create_subscription(CameraInfo, 'camera_info', self._on_camera_info, RESULT_QOS)
-        if subscribe_image and self.motion_input != 'none':
+        if not subscribe_image:
+            self.motion_input = 'none'  # a pipeline hands the masks over with the frames
+        if self.motion_input != 'none':
             self.create_subscription(Image, self.motion_input, self._on_mask, RESULT_QOS)
             self.create_timer(0.02, self._drain)
         self._warm_up()
@@ -214,6 +216,10 @@ class TrackerNode(ImageStage):
             self.pending.popleft()
             if mask is None:
                 self.unmatched += 1
+                self.get_logger().warn(
+                    f'frame tracked without its {self.motion_input} mask (none within {self.match_timeout} s)',
+                    throttle_duration_sec=5.0,
+                )
             start = time.perf_counter()
             self.track(image, header, mask)
             self.timer_stats.took(time.perf_counter() - start)
@@ -222,14 +228,11 @@ class TrackerNode(ImageStage):
 
     def handle_frame(self, image: np.ndarray, header: Any, motion: np.ndarray | None = None) -> object:
         """Track on one frame: now when its mask is given or none is expected, else once it arrives."""
-        if motion is None and self.motion_input != 'none' and self._waits_for_masks():
+        if motion is None and self.motion_input != 'none':
             self.pending.append((stamp_ns(header), time.monotonic(), image, header))
             self._drain()
             return DEFERRED
         return self.track(image, header, motion)
-
-    def _waits_for_masks(self) -> bool:
-        return self.count_publishers(self.resolve_topic_name(self.motion_input)) > 0 or bool(self.masks)
 
     def track(self, image: np.ndarray, header: Any, motion: np.ndarray | None) -> TargetResult | None:
         """Run the tracker on one frame and publish what it found under ``header``."""

@@ -13,7 +13,15 @@ import pytest
 from conftest import REPO
 from ros_harness import environment
 
-EXECUTABLES = ('tracker_node', 'pipeline', 'background_node', 'optical_flow_node', 'bag_play', 'human_tracker')
+EXECUTABLES = (
+    'tracker_node',
+    'pipeline',
+    'background_node',
+    'optical_flow_node',
+    'video_publisher',
+    'bag_play',
+    'human_tracker',
+)
 IGNORE = shutil.ignore_patterns('.git', '.venv', 'out', 'build', 'install', 'log', '__pycache__', '.*_cache')
 
 

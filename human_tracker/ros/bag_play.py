@@ -3,7 +3,9 @@
 Messages are published as the bag's raw serialized bytes (no deserialisation), at the
 recorded rate scaled by ``--rate``, optionally looping, filtered with ``--topics`` and
 renamed with ``--remap old:=new``. The publishers offer the QoS recorded in the bag's
-metadata where there is one (reliable, keep last 100 otherwise).
+metadata where there is one (reliable, keep last 100 otherwise). Like ``ros2 bag play``,
+the services ``~/pause``, ``~/resume`` and ``~/toggle_paused`` (std_srvs/Trigger) control
+playback, and ``--start-paused`` waits for ``~/resume``.
 """
 
 from __future__ import annotations
@@ -11,20 +13,22 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+import threading
 import time
 from collections.abc import Sequence
 from pathlib import Path
 
 import rclpy
 from rclpy.duration import Duration
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.time import Time
-from rclpy.utilities import remove_ros_args
 from rosbags.highlevel import AnyReader, AnyReaderError
+from rosbags.interfaces import QosDurability, QosReliability
 from rosbags.rosbag2 import ReaderError
 from rosgraph_msgs.msg import Clock
+from std_srvs.srv import Trigger
 
 __all__ = ['BagPlayer', 'main', 'message_class']
 
@@ -46,8 +50,10 @@ def _recorded_qos(connection: object) -> QoSProfile:
     if not profiles:
         return _DEFAULT_QOS
     recorded = profiles[0]
-    reliability = ReliabilityPolicy.BEST_EFFORT if int(recorded.reliability) == 2 else ReliabilityPolicy.RELIABLE
-    durability = DurabilityPolicy.TRANSIENT_LOCAL if int(recorded.durability) == 1 else DurabilityPolicy.VOLATILE
+    best_effort = recorded.reliability == QosReliability.BEST_EFFORT
+    latched = recorded.durability == QosDurability.TRANSIENT_LOCAL
+    reliability = ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE
+    durability = DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE
     return QoSProfile(
         depth=max(int(recorded.depth), 100),
         history=HistoryPolicy.KEEP_LAST,
@@ -100,6 +106,23 @@ class BagPlayer(Node):
             )
         self.clock_pub = self.create_publisher(Clock, '/clock', 10) if clock else None
         self.published = 0
+        self.playing = threading.Event()
+        self.playing.set()
+        self.create_service(Trigger, '~/pause', lambda _, response: self._set_paused(True, response))
+        self.create_service(Trigger, '~/resume', lambda _, response: self._set_paused(False, response))
+        self.create_service(
+            Trigger, '~/toggle_paused', lambda _, response: self._set_paused(self.playing.is_set(), response)
+        )
+
+    def _set_paused(self, paused: bool, response: Trigger.Response) -> Trigger.Response:
+        if paused:
+            self.playing.clear()
+        else:
+            self.playing.set()
+        response.success = True
+        response.message = 'paused' if paused else 'playing'
+        self.get_logger().info(response.message)
+        return response
 
     def wait_for_subscribers(self, topic: str, count: int, timeout: float) -> bool:
         """Block until ``topic`` has ``count`` matched subscribers (or ``timeout`` seconds)."""
@@ -114,10 +137,17 @@ class BagPlayer(Node):
         return False
 
     def play_once(self, start_offset: float = 0.0) -> None:
-        """Publish every selected message once, paced by the recorded timestamps."""
+        """Publish every selected message once, paced by the recorded timestamps.
+
+        Time spent paused is added to the schedule, so playback resumes where it stopped.
+        """
         start_ns = self.reader.start_time + int(start_offset * 1e9)
         wall_start = time.monotonic()
         for conn, timestamp, raw in self.reader.messages(connections=self.connections, start=start_ns):
+            if not self.playing.is_set():
+                paused_at = time.monotonic()
+                self.playing.wait()
+                wall_start += time.monotonic() - paused_at
             due = wall_start + (timestamp - start_ns) / 1e9 / self.rate
             delay = due - time.monotonic()
             if delay > 0:
@@ -145,6 +175,9 @@ def _arguments(argv: Sequence[str]) -> argparse.Namespace:
     parser.add_argument('--start-offset', type=float, default=0.0, help='seconds into the bag to start at')
     parser.add_argument('-d', '--delay', type=float, default=0.0, help='seconds to wait before playing')
     parser.add_argument(
+        '-p', '--start-paused', action='store_true', help='wait for the ~/resume service before playing'
+    )
+    parser.add_argument(
         '--wait-for-subscribers',
         nargs=2,
         metavar=('TOPIC', 'COUNT'),
@@ -156,20 +189,33 @@ def _arguments(argv: Sequence[str]) -> argparse.Namespace:
 def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run human_tracker bag_play BAG``; returns the exit code."""
     argv = sys.argv if args is None else args
-    rclpy.init(args=argv)
-    options = _arguments(remove_ros_args(argv)[1:])
+    # Our options (``--remap old:=new`` among them) come before ``--ros-args``: rcl would
+    # take ``old:=new`` for a global remap rule of this node if it saw it.
+    split = argv.index('--ros-args') if '--ros-args' in argv else len(argv)
+    options = _arguments(argv[1:split])
+    rclpy.init(args=[argv[0], *argv[split:]])
     player = None
+    executor = None
+    spinner = None
     bag = options.bag.parent if options.bag.is_file() else options.bag
     code = 0
     try:
         player = BagPlayer(
             bag, rate=options.rate, topics=options.topics, remaps=_parse_remaps(options.remap), clock=options.clock
         )
+        # Services (pause / resume) are served while the main thread publishes.
+        executor = SingleThreadedExecutor()
+        executor.add_node(player)
+        spinner = threading.Thread(target=executor.spin, daemon=True)
+        spinner.start()
         if options.wait_for_subscribers:
             topic, count = options.wait_for_subscribers
             if not player.wait_for_subscribers(topic, int(count), 30.0):
                 player.get_logger().warn(f'playing although {topic} has fewer than {count} subscribers after 30 s')
         time.sleep(max(options.delay, 0.0))
+        if options.start_paused:
+            player.playing.clear()
+            player.get_logger().info('paused: call ~/resume to play')
         while True:
             player.play_once(options.start_offset)
             if not options.loop:
@@ -182,6 +228,10 @@ def main(args: list[str] | None = None) -> int:
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
+        if executor is not None:
+            executor.shutdown(timeout_sec=5.0)
+        if spinner is not None:
+            spinner.join(timeout=5.0)
         if player is not None:
             player.destroy_node()
         rclpy.try_shutdown()

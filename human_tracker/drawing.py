@@ -27,6 +27,7 @@ def annotate(
     truth: tuple[float, float, float, float] | None = None,
     label: str = '',
     closed: bool = False,
+    motion: np.ndarray | None = None,
 ) -> np.ndarray:
     """Return a copy of ``image`` (BGR) with the tracker's output drawn on it.
 
@@ -38,8 +39,12 @@ def annotate(
         truth: Ground-truth box, pixels (magenta).
         label: Text written in the top-left corner.
         closed: Draw the contour as a closed curve.
+        motion: ``(H, W)`` motion cue (foreground or moving pixels), tinted red.
     """
     out = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR) if image.ndim == 2 else image.copy()
+    if motion is not None and motion.shape == out.shape[:2]:
+        moving = motion > 0
+        out[moving] = (0.6 * out[moving] + (0, 0, 100)).astype(np.uint8)
     if particles is not None:
         for x, y in np.round(particles[:, :2]).astype(np.int32):
             cv2.circle(out, (int(x), int(y)), 1, _PARTICLE, -1)

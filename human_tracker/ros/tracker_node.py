@@ -269,6 +269,7 @@ class TrackerNode(ImageStage):
                 box=None if estimate is None else estimate.box,
                 particles=self.tracker.filter.particles,
                 label=label,
+                motion=motion,
             )
             self.debug_pub.publish(array_to_image(debug, 'bgr8', header))
         return result

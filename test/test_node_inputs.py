@@ -1,0 +1,141 @@
+"""Every listed image encoding, and compressed images, through a node over real DDS."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import rclpy
+from geometry_msgs.msg import PoseWithCovarianceStamped
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import CompressedImage, Image
+
+from human_tracker.io.bags import read_frames
+from human_tracker.ros.background_node import BackgroundNode
+from human_tracker.ros.image_conversion import ENCODINGS, array_to_compressed, array_to_image, message_to_bgr8
+from human_tracker.ros.tracker_node import TrackerNode
+
+RELIABLE = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
+IMAGE_ENCODINGS = sorted(e for e in ENCODINGS if e != '32FC2')  # 32FC2 is flow, not a picture
+
+
+def _pixels(encoding: str, rng: np.random.Generator) -> np.ndarray:
+    layout = ENCODINGS[encoding]
+    shape = (48, 64) if layout.channels == 1 else (48, 64, layout.channels)
+    if layout.dtype == 'f4':
+        return rng.uniform(0.5, 4.0, size=shape).astype(np.float32)
+    return rng.integers(0, np.iinfo(np.dtype(layout.dtype)).max, size=shape, dtype=np.dtype(layout.dtype))
+
+
+def _run(transport: str, messages: list) -> tuple[list[int], BackgroundNode]:
+    """Publish ``messages`` to a background_node in this process; return the foreground stamps."""
+    rclpy.init()
+    overrides = [
+        Parameter('image_transport', value=transport),
+        Parameter('qos_reliability', value='reliable'),
+        Parameter('qos_depth', value=100),
+    ]
+    stage = BackgroundNode(parameter_overrides=overrides)
+    source = Node('camera')
+    topic = 'image/compressed' if transport == 'compressed' else 'image'
+    publisher = source.create_publisher(CompressedImage if transport == 'compressed' else Image, topic, RELIABLE)
+    stamps: list[int] = []
+    source.create_subscription(Image, 'foreground', lambda m: stamps.append(m.header.stamp.sec), RELIABLE)
+    executor = SingleThreadedExecutor()
+    executor.add_node(stage)
+    executor.add_node(source)
+    try:
+        deadline = time.monotonic() + 20.0
+        while publisher.get_subscription_count() < 1 and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+        for msg in messages:
+            publisher.publish(msg)
+        deadline = time.monotonic() + 20.0
+        while stage.counters.received < len(messages) and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+        for _ in range(20):
+            executor.spin_once(timeout_sec=0.02)
+    finally:
+        executor.shutdown()
+        stage.destroy_node()
+        source.destroy_node()
+        rclpy.try_shutdown()
+    return stamps, stage
+
+
+def test_every_listed_encoding_is_processed_and_a_bad_one_is_counted() -> None:
+    rng = np.random.default_rng(0)
+    messages = []
+    for index, encoding in enumerate(IMAGE_ENCODINGS, start=1):
+        msg = array_to_image(_pixels(encoding, rng), encoding)
+        msg.header.stamp.sec = index
+        messages.append(msg)
+    bad = array_to_image(_pixels('mono8', rng), 'mono8')
+    bad.encoding = 'mono12'  # not a ROS encoding
+    bad.header.stamp.sec = 1000
+    stamps, stage = _run('raw', [*messages, bad])
+    print(f'encodings through background_node: {IMAGE_ENCODINGS}; counters {stage.counters}')
+    assert stamps == list(range(1, len(IMAGE_ENCODINGS) + 1))  # one foreground per frame, in order
+    assert stage.counters.processed == len(IMAGE_ENCODINGS)
+    assert stage.counters.rejected == 1 and stage.counters.rejected_reasons == {'conversion': 1}
+
+
+def test_compressed_jpeg_and_png_input() -> None:
+    rng = np.random.default_rng(1)
+    messages = []
+    for index, kind in enumerate(['jpeg', 'png', 'jpeg'], start=1):
+        msg = array_to_compressed(rng.integers(0, 255, (48, 64, 3), dtype=np.uint8), kind)
+        msg.header.stamp.sec = index
+        messages.append(msg)
+    stamps, stage = _run('compressed', messages)
+    assert stamps == [1, 2, 3]
+    assert stage.counters.rejected == 0
+
+
+def test_tracker_debug_image_and_pose_carry_the_input_header() -> None:
+    frames = list(read_frames('bags/head_basic'))[:3]
+    rclpy.init()
+    box = [float(v) for v in frames[0].ground_truth]
+    tracker = TrackerNode(
+        parameter_overrides=[
+            Parameter('init_box', value=box),
+            Parameter('qos_reliability', value='reliable'),
+            Parameter('qos_depth', value=10),
+        ]
+    )
+    source = Node('camera')
+    publisher = source.create_publisher(Image, 'image', RELIABLE)
+    debug: list[Image] = []
+    poses: list = []
+    source.create_subscription(Image, 'debug_image', debug.append, RELIABLE)
+    source.create_subscription(PoseWithCovarianceStamped, 'pose', poses.append, RELIABLE)
+    executor = SingleThreadedExecutor()
+    executor.add_node(tracker)
+    executor.add_node(source)
+    try:
+        deadline = time.monotonic() + 20.0
+        while (
+            publisher.get_subscription_count() < 1 or tracker.debug_pub.get_subscription_count() < 1
+        ) and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+        sent = []
+        for frame in frames:
+            msg = array_to_image(message_to_bgr8(frame.message), 'bgr8')
+            msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(frame.stamp_ns, 10**9)
+            msg.header.frame_id = 'camera_optical_frame'
+            publisher.publish(msg)
+            sent.append(msg.header)
+        deadline = time.monotonic() + 20.0
+        while min(len(debug), len(poses)) < len(frames) and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+    finally:
+        executor.shutdown()
+        tracker.destroy_node()
+        source.destroy_node()
+        rclpy.try_shutdown()
+    assert [m.header for m in debug] == sent
+    assert [p.header for p in poses] == sent
+    assert all(m.encoding == 'bgr8' and (m.width, m.height) == (640, 480) for m in debug)

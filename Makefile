@@ -39,3 +39,7 @@ bags: $(STAMP)
 
 clean:
 	rm -rf $(VENV) out build install log
+
+# Speed lives here, never in timed tests: latency and throughput of the nodes over DDS.
+bench: $(STAMP)
+	$(PY) -m human_tracker.bench --out out/bench

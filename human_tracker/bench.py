@@ -1,0 +1,195 @@
+"""``make bench``: end-to-end latency and throughput of the nodes over DDS.
+
+A camera simulator in this process publishes raw 640x480 bgr8 frames of a bundled bag,
+stamped with the time they are sent, to the package's nodes started as OS processes:
+
+- ``pipeline``: one process (camera subscriber -> background subtraction -> tracker);
+- ``separate``: ``background_node`` and ``tracker_node`` (masks matched by stamp).
+
+Each layout runs at 30 Hz (a camera's pace: frames are sent on a timer whatever happens)
+and at full speed (the next frame is sent as soon as the pose of the previous one arrives,
+so the figure is the chain's own rate). Latency is pose arrival time minus image stamp.
+Results go to ``out/bench/latency.json`` and ``out/bench/latency.md``. These are
+measurements of this machine at this moment: read the ratios, not the absolute values.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import rclpy
+from geometry_msgs.msg import PoseWithCovarianceStamped
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import Image
+
+from human_tracker.io.bags import read_frames
+from human_tracker.ros.image_conversion import array_to_image, message_to_bgr8
+from human_tracker.ros.processes import NodeProcess, ros_environment
+
+__all__ = ['measure_latency', 'main']
+
+_RESULTS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+
+
+class _Camera(Node):
+    """Publishes frames stamped now and records when each pose comes back."""
+
+    def __init__(self) -> None:
+        super().__init__('bench_camera')
+        self.publisher = self.create_publisher(
+            Image, 'image', QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
+        )
+        self.sent: dict[int, float] = {}
+        self.latency_s: dict[int, float] = {}
+        self.create_subscription(PoseWithCovarianceStamped, 'pose', self._on_pose, _RESULTS)
+
+    def send(self, message: Image) -> int:
+        now = self.get_clock().now()
+        message.header.stamp = now.to_msg()
+        stamp = now.nanoseconds
+        self.sent[stamp] = time.monotonic()
+        self.publisher.publish(message)
+        return stamp
+
+    def _on_pose(self, msg: PoseWithCovarianceStamped) -> None:
+        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        if stamp in self.sent:
+            self.latency_s[stamp] = time.monotonic() - self.sent[stamp]
+
+
+def _layout(name: str, box: list[float], env: dict[str, str], logs: Path) -> list[NodeProcess]:
+    init = ['-p', 'init_box:=[' + ', '.join(f'{v:.1f}' for v in box) + ']']
+    if name == 'pipeline':
+        return [
+            NodeProcess(
+                'human_tracker.ros.pipeline',
+                ['--ros-args', '-p', 'motion_cue:=background', *init],
+                env,
+                logs / 'pipeline.log',
+            )
+        ]
+    return [
+        NodeProcess('human_tracker.ros.background_node', ['--ros-args'], env, logs / 'background_node.log'),
+        NodeProcess(
+            'human_tracker.ros.tracker_node',
+            ['--ros-args', '-p', 'motion_input:=foreground', *init],
+            env,
+            logs / 'tracker_node.log',
+        ),
+    ]
+
+
+def measure_latency(
+    layout: str, rate_hz: float | None, frames: list[Image], box: list[float], logs: Path
+) -> dict[str, object]:
+    """Run one layout at ``rate_hz`` (None: full speed, closed loop) over ``frames``."""
+    env = ros_environment(int(os.environ['ROS_DOMAIN_ID']))
+    nodes = _layout(layout, box, env, logs)
+    camera = _Camera()
+    executor = SingleThreadedExecutor()
+    executor.add_node(camera)
+    try:
+        for node in nodes:
+            node.start()
+        deadline = time.monotonic() + 60.0
+        subscribers = len(nodes) if layout == 'separate' else 1
+        while (
+            camera.publisher.get_subscription_count() < subscribers
+            or camera.count_publishers(camera.resolve_topic_name('pose')) < 1
+        ):
+            if time.monotonic() > deadline:
+                raise RuntimeError('nodes did not come up:\n' + '\n'.join(node.output() for node in nodes))
+            executor.spin_once(timeout_sec=0.05)
+        time.sleep(1.0)  # let the nodes finish starting (discovery of their own topics)
+        started = time.monotonic()
+        for message in frames:
+            stamp = camera.send(message)
+            if rate_hz is None:
+                wait_until = time.monotonic() + 1.0
+                while stamp not in camera.latency_s and time.monotonic() < wait_until:
+                    executor.spin_once(timeout_sec=0.001)
+            else:
+                due = started + len(camera.sent) / rate_hz
+                while time.monotonic() < due:
+                    executor.spin_once(timeout_sec=max(0.0, min(0.005, due - time.monotonic())))
+        elapsed = time.monotonic() - started
+        settle = time.monotonic() + 2.0
+        while time.monotonic() < settle:
+            executor.spin_once(timeout_sec=0.01)
+    finally:
+        for node in nodes:
+            node.stop()
+        executor.shutdown()
+        camera.destroy_node()
+    latencies = np.array(sorted(camera.latency_s.values())) * 1000.0
+    return {
+        'layout': layout,
+        'rate': 'full speed' if rate_hz is None else f'{rate_hz:g} Hz',
+        'frames_sent': len(frames),
+        'poses_received': int(latencies.size),
+        'throughput_hz': round(latencies.size / elapsed, 2),
+        'latency_ms_median': round(float(np.median(latencies)), 2) if latencies.size else None,
+        'latency_ms_p95': round(float(np.percentile(latencies, 95)), 2) if latencies.size else None,
+    }
+
+
+def _markdown(rows: list[dict[str, object]]) -> str:
+    lines = [
+        '| layout | rate | frames sent | poses received | throughput (Hz) | latency median (ms) | latency p95 (ms) |',
+        '|---|---|---|---|---|---|---|',
+    ]
+    for r in rows:
+        lines.append(
+            f'| {r["layout"]} | {r["rate"]} | {r["frames_sent"]} | {r["poses_received"]} | {r["throughput_hz"]} | '
+            f'{r["latency_ms_median"]} | {r["latency_ms_p95"]} |'
+        )
+    return '\n'.join(lines) + '\n'
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``python -m human_tracker.bench``."""
+    parser = argparse.ArgumentParser(description='Latency and throughput of the nodes over DDS.')
+    parser.add_argument('--bag', type=Path, default=Path('bags/head_basic'))
+    parser.add_argument('--out', type=Path, default=Path('out/bench'))
+    parser.add_argument('--frames', type=int, default=240, help='frames per run (the bag is looped)')
+    options = parser.parse_args(argv)
+    options.out.mkdir(parents=True, exist_ok=True)
+    os.environ.setdefault('ROS_DOMAIN_ID', str(150 + os.getpid() % 50))
+    os.environ.update(
+        {
+            k: v
+            for k, v in ros_environment(int(os.environ['ROS_DOMAIN_ID'])).items()
+            if k.startswith(('ROS_', 'RMW_', 'FASTRTPS_'))
+        }
+    )
+    bag_frames = list(read_frames(options.bag))
+    images = [array_to_image(message_to_bgr8(f.message), 'bgr8') for f in bag_frames]
+    frames = [images[i % len(images)] for i in range(options.frames)]
+    box = [float(v) for v in bag_frames[0].ground_truth]
+    rclpy.init()
+    rows = []
+    try:
+        for layout in ('pipeline', 'separate'):
+            for rate in (30.0, None):
+                row = measure_latency(layout, rate, frames, box, options.out)
+                rows.append(row)
+                print(json.dumps(row))
+    finally:
+        rclpy.try_shutdown()
+    (options.out / 'latency.json').write_text(json.dumps(rows, indent=2) + '\n')
+    table = _markdown(rows)
+    (options.out / 'latency.md').write_text(table)
+    print(table)
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

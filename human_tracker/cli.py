@@ -3,9 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import json
 import shutil
 import sys
 from pathlib import Path
+
+from human_tracker.io.bags import BagError
+from human_tracker.io.sequences import SequenceError
 
 __all__ = ['main']
 
@@ -31,6 +35,78 @@ def _generate(options: argparse.Namespace) -> int:
     return 0
 
 
+def _box(text: str) -> tuple[float, float, float, float]:
+    try:
+        values = tuple(float(v) for v in text.split(','))
+    except ValueError:
+        values = ()
+    if len(values) != 4 or values[2] <= 0 or values[3] <= 0:
+        raise argparse.ArgumentTypeError(f'expected x,y,w,h with w, h > 0, got {text!r}')
+    return values  # type: ignore[return-value]
+
+
+def _track(options: argparse.Namespace) -> int:
+    from human_tracker.offline import TrackOptions, track_sequence
+    from human_tracker.vision.tracker import TrackerParameters
+
+    out = options.out or Path('out') / 'track' / Path(options.input).name
+    settings = TrackOptions(
+        target=options.target,
+        init=options.init,
+        cue=options.cue,
+        filter_parameters=TrackerParameters(num_particles=options.particles, seed=options.seed),
+        video=not options.no_video,
+        progress=not options.quiet,
+    )
+    summary = track_sequence(options.input, out, settings)
+    print(json.dumps(summary, indent=2))
+    print(
+        f'human_tracker track: wrote {out}/poses.csv, summary.json'
+        + ('' if options.no_video else ', tracking.mp4')
+        + ', plots'
+    )
+    return 0
+
+
+def _eval(options: argparse.Namespace) -> int:
+    from human_tracker.evaluation.metrics import summarise
+    from human_tracker.io.sequences import open_sequence, read_groundtruth
+    from human_tracker.offline import read_poses
+
+    predicted = read_poses(options.poses)
+    truth_path = Path(options.truth)
+    truth = (
+        read_groundtruth(truth_path)
+        if truth_path.is_file() and truth_path.suffix == '.txt'
+        else [f.ground_truth for f in open_sequence(truth_path)]
+    )
+    if len(truth) != len(predicted):
+        print(f'human_tracker eval: {len(predicted)} poses but {len(truth)} ground-truth frames', file=sys.stderr)
+        return 2
+    print(json.dumps(summarise(predicted, truth), indent=2))
+    return 0
+
+
+def _import(options: argparse.Namespace) -> int:
+    from human_tracker.io.bags import write_bag
+    from human_tracker.io.sequences import open_sequence, read_groundtruth
+
+    sequence = open_sequence(options.input)
+    extra = read_groundtruth(Path(options.groundtruth)) if options.groundtruth else None
+    if options.out.exists():
+        print(f'human_tracker import: {options.out} exists; choose a new folder', file=sys.stderr)
+        return 2
+
+    def frames():
+        for frame in sequence:
+            box = extra[frame.index] if extra is not None and frame.index < len(extra) else frame.ground_truth
+            yield frame.stamp_ns, frame.image, box
+
+    write_bag(options.out, frames(), storage=options.storage, target=options.target)
+    print(f'human_tracker import: wrote {options.out}')
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``human_tracker``; returns the exit code."""
     parser = argparse.ArgumentParser(
@@ -44,8 +120,46 @@ def main(argv: list[str] | None = None) -> int:
     generate.add_argument('--raw', action='store_true', help='raw bgr8 Image instead of JPEG CompressedImage')
     generate.add_argument('--storage', choices=('mcap', 'sqlite3'), default='mcap')
     generate.set_defaults(run=_generate)
+
+    track = commands.add_parser(
+        'track', help='track a bag, a video file or a folder of frames, offline and as fast as possible'
+    )
+    track.add_argument(
+        'input', help='bag (folder, .mcap, .db3), video file, or folder of frames (optional groundtruth.txt)'
+    )
+    track.add_argument('--target', choices=('head',), default='head')
+    track.add_argument(
+        '--init', type=_box, metavar='X,Y,W,H', help='box of the target in the first frame (default: start from motion)'
+    )
+    track.add_argument('--out', type=Path, help='output folder (default out/track/<input name>)')
+    track.add_argument(
+        '--cue', choices=('background', 'flow', 'none'), default='background', help='motion cue (default background)'
+    )
+    track.add_argument('--particles', type=int, default=500)
+    track.add_argument('--seed', type=int, default=0)
+    track.add_argument('--no-video', action='store_true', help='skip the annotated video')
+    track.add_argument('--quiet', action='store_true', help='no progress bar')
+    track.set_defaults(run=_track)
+
+    evaluate = commands.add_parser('eval', help='score a poses.csv against ground truth (OTB metrics)')
+    evaluate.add_argument('poses', type=Path, help='poses.csv written by track')
+    evaluate.add_argument('truth', help='groundtruth.txt, or the sequence (bag or folder) that holds it')
+    evaluate.set_defaults(run=_eval)
+
+    importer = commands.add_parser('import', help='a folder of frames or a video (with ground truth) into a bag')
+    importer.add_argument('input', help='video file or folder of frames (optional groundtruth.txt)')
+    importer.add_argument('--out', type=Path, required=True, help='bag folder to create')
+    importer.add_argument('--groundtruth', help='groundtruth.txt (default: the folder own)')
+    importer.add_argument('--target', default='head', help='ground-truth topic /ground_truth/<target>')
+    importer.add_argument('--storage', choices=('mcap', 'sqlite3'), default='mcap')
+    importer.set_defaults(run=_import)
+
     options = parser.parse_args(argv)
-    return int(options.run(options))
+    try:
+        return int(options.run(options))
+    except (SequenceError, BagError, ValueError, OSError) as err:
+        print(f'human_tracker {options.command}: error: {err}', file=sys.stderr)
+        return 2
 
 
 if __name__ == '__main__':

@@ -7,7 +7,7 @@ corners, or no points where the target is out of view).
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -27,6 +27,7 @@ __all__ = [
     'COMPRESSED_CAMERA_TOPIC',
     'CAMERA_INFO_TOPIC',
     'ground_truth_topic',
+    'write_bag',
     'write_scene_bag',
     'read_frames',
 ]
@@ -38,6 +39,7 @@ CAMERA_FRAME = 'camera_optical_frame'
 _IMAGE_TYPES = ('sensor_msgs/msg/Image', 'sensor_msgs/msg/CompressedImage')
 
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
+Box = tuple[float, float, float, float]
 
 
 class BagError(RuntimeError):
@@ -55,13 +57,13 @@ def _header(stamp_ns: int) -> object:
     return types['std_msgs/msg/Header'](stamp=stamp, frame_id=CAMERA_FRAME)
 
 
-def _camera_info(spec: SceneSpec, stamp_ns: int) -> object:
-    k = default_camera_matrix(spec.width, spec.height)
+def _camera_info(width: int, height: int, stamp_ns: int) -> object:
+    k = default_camera_matrix(width, height)
     projection = np.hstack([k, np.zeros((3, 1))])
     return TYPESTORE.types['sensor_msgs/msg/CameraInfo'](
         header=_header(stamp_ns),
-        height=spec.height,
-        width=spec.width,
+        height=height,
+        width=width,
         distortion_model='plumb_bob',
         d=np.zeros(5),
         k=k.reshape(-1),
@@ -92,20 +94,20 @@ def _polygon(stamp_ns: int, box: tuple[float, float, float, float] | None) -> ob
     )
 
 
-def write_scene_bag(
-    spec: SceneSpec,
+def write_bag(
     path: str | Path,
+    frames: Iterable[tuple[int, np.ndarray, Box | None]],
     *,
     compressed: bool = True,
     storage: str = 'mcap',
     jpeg_quality: int = 65,
     target: str = 'head',
 ) -> Path:
-    """Render ``spec`` and record it as a rosbag2 bag.
+    """Record frames with their ground truth as a rosbag2 bag.
 
     Args:
-        spec: The scene.
         path: Bag folder to create (must not exist).
+        frames: ``(stamp_ns, (H, W, 3) uint8 BGR image, box or None)`` in time order.
         compressed: Record JPEG ``CompressedImage`` on :data:`COMPRESSED_CAMERA_TOPIC`
             (small bags) instead of raw bgr8 ``Image`` on :data:`CAMERA_TOPIC`.
         storage: ``mcap`` or ``sqlite3``.
@@ -118,8 +120,8 @@ def write_scene_bag(
     path = Path(path)
     plugin = {'mcap': StoragePlugin.MCAP, 'sqlite3': StoragePlugin.SQLITE3}[storage]
     types = TYPESTORE.types
+    image_type = 'sensor_msgs/msg/CompressedImage' if compressed else 'sensor_msgs/msg/Image'
     with Writer(path, version=9, storage_plugin=plugin) as writer:
-        image_type = 'sensor_msgs/msg/CompressedImage' if compressed else 'sensor_msgs/msg/Image'
         camera = writer.add_connection(
             COMPRESSED_CAMERA_TOPIC if compressed else CAMERA_TOPIC, image_type, typestore=TYPESTORE
         )
@@ -127,37 +129,41 @@ def write_scene_bag(
         truth = writer.add_connection(
             ground_truth_topic(target), 'geometry_msgs/msg/PolygonStamped', typestore=TYPESTORE
         )
-        for frame in render_scene(spec):
-            header = _header(frame.stamp_ns)
+        for stamp_ns, image, box in frames:
+            header = _header(stamp_ns)
+            height, width = image.shape[:2]
             if compressed:
-                ok, encoded = cv2.imencode('.jpg', frame.image, [cv2.IMWRITE_JPEG_QUALITY, jpeg_quality])
-                assert ok
+                ok, encoded = cv2.imencode('.jpg', image, [cv2.IMWRITE_JPEG_QUALITY, jpeg_quality])
+                if not ok:
+                    raise BagError(f'cannot JPEG-encode a frame of shape {image.shape}')
                 msg = types['sensor_msgs/msg/CompressedImage'](
                     header=header, format='bgr8; jpeg compressed bgr8', data=encoded.reshape(-1)
                 )
             else:
-                h, w = frame.image.shape[:2]
                 msg = types['sensor_msgs/msg/Image'](
                     header=header,
-                    height=h,
-                    width=w,
+                    height=height,
+                    width=width,
                     encoding='bgr8',
                     is_bigendian=0,
-                    step=w * 3,
-                    data=frame.image.reshape(-1),
+                    step=width * 3,
+                    data=image.reshape(-1),
                 )
-            writer.write(camera, frame.stamp_ns, TYPESTORE.serialize_cdr(msg, image_type))
+            writer.write(camera, stamp_ns, TYPESTORE.serialize_cdr(msg, image_type))
             writer.write(
                 info,
-                frame.stamp_ns,
-                TYPESTORE.serialize_cdr(_camera_info(spec, frame.stamp_ns), 'sensor_msgs/msg/CameraInfo'),
+                stamp_ns,
+                TYPESTORE.serialize_cdr(_camera_info(width, height, stamp_ns), 'sensor_msgs/msg/CameraInfo'),
             )
             writer.write(
-                truth,
-                frame.stamp_ns,
-                TYPESTORE.serialize_cdr(_polygon(frame.stamp_ns, frame.head_box), 'geometry_msgs/msg/PolygonStamped'),
+                truth, stamp_ns, TYPESTORE.serialize_cdr(_polygon(stamp_ns, box), 'geometry_msgs/msg/PolygonStamped')
             )
     return path
+
+
+def write_scene_bag(spec: SceneSpec, path: str | Path, **options: object) -> Path:
+    """Render ``spec`` and record it with :func:`write_bag` (same options)."""
+    return write_bag(path, ((f.stamp_ns, f.image, f.head_box) for f in render_scene(spec)), **options)  # type: ignore[arg-type]
 
 
 @dataclass

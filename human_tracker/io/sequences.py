@@ -1,0 +1,111 @@
+"""Sequences for offline tracking: a bag, a video file or a folder of frames, with ground truth.
+
+A folder holds sorted image files (or an ``img/`` subfolder of them) and optionally
+``groundtruth.txt``: one ``x,y,w,h`` line per frame (commas, tabs or spaces), ``0,0,0,0``
+for a frame that is not annotated.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from human_tracker.io.bags import BagError, read_frames
+from human_tracker.io.frames import FrameSourceError, open_frames
+from human_tracker.io.images import message_to_bgr8
+
+__all__ = ['SequenceError', 'SequenceFrame', 'Sequence', 'open_sequence', 'read_groundtruth', 'write_groundtruth']
+
+Box = tuple[float, float, float, float]
+
+
+class SequenceError(RuntimeError):
+    """A sequence cannot be opened or read; the message says why."""
+
+
+@dataclass
+class SequenceFrame:
+    """One frame: index, stamp (nanoseconds), ``(H, W, 3) uint8`` BGR image, ground truth or None."""
+
+    index: int
+    stamp_ns: int
+    image: np.ndarray
+    ground_truth: Box | None
+
+
+@dataclass
+class Sequence:
+    """An opened sequence: its name, nominal rate, and a way to iterate its frames."""
+
+    name: str
+    fps: float
+    path: Path
+
+    def __iter__(self) -> Iterator[SequenceFrame]:
+        try:
+            if _is_bag(self.path):
+                for frame in read_frames(self.path):
+                    yield SequenceFrame(frame.index, frame.stamp_ns, message_to_bgr8(frame.message), frame.ground_truth)
+                return
+            source = open_frames(self.path)
+            truth = read_groundtruth(self.path / 'groundtruth.txt') if self.path.is_dir() else []
+            try:
+                for index, image in enumerate(source):
+                    box = truth[index] if index < len(truth) else None
+                    yield SequenceFrame(index, int(round(index * 1e9 / self.fps)), image, box)
+            finally:
+                source.close()
+        except (BagError, FrameSourceError) as err:
+            raise SequenceError(str(err)) from err
+
+
+def _is_bag(path: Path) -> bool:
+    if path.is_file():
+        return path.suffix in ('.mcap', '.db3')
+    return (path / 'metadata.yaml').exists()
+
+
+def open_sequence(path: str | Path) -> Sequence:
+    """Open a bag (folder, ``.mcap`` or ``.db3``), a video file or a folder of frames.
+
+    Raises:
+        SequenceError: Nothing usable at ``path``.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise SequenceError(f'{path} does not exist')
+    if _is_bag(path):
+        return Sequence(path.stem if path.is_file() else path.name, 30.0, path)
+    try:
+        source = open_frames(path)
+    except FrameSourceError as err:
+        raise SequenceError(str(err)) from err
+    fps = source.fps
+    source.close()
+    return Sequence(path.stem if path.is_file() else path.name, fps, path)
+
+
+def read_groundtruth(path: Path) -> list[Box | None]:
+    """Boxes of a ``groundtruth.txt`` (None for ``0,0,0,0`` lines); empty when the file is absent."""
+    if not path.exists():
+        return []
+    boxes: list[Box | None] = []
+    for number, line in enumerate(path.read_text().splitlines(), start=1):
+        fields = line.replace(',', ' ').replace('\t', ' ').split()
+        if not fields:
+            continue
+        try:
+            x, y, w, h = (float(v) for v in fields[:4])
+        except ValueError as err:
+            raise SequenceError(f'{path}:{number}: expected x,y,w,h, got {line!r}') from err
+        boxes.append((x, y, w, h) if w > 0 and h > 0 else None)
+    return boxes
+
+
+def write_groundtruth(path: Path, boxes: list[Box | None]) -> None:
+    """Write boxes as ``groundtruth.txt`` lines (``0,0,0,0`` for None)."""
+    lines = ['0,0,0,0' if b is None else ','.join(f'{v:g}' for v in b) for b in boxes]
+    path.write_text('\n'.join(lines) + '\n')

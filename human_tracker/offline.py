@@ -1,0 +1,167 @@
+"""Offline tracking of a sequence, as fast as the machine allows (no ROS graph): the
+``human_tracker track`` command.
+
+The same core as the nodes runs on every frame: the motion cue (background subtraction,
+optical flow or none) and the :class:`~human_tracker.vision.target.TargetTracker`. Without
+an initial box the tracker starts by itself from motion (§2.5); with one, from that box in
+the first frame (the protocol of tracking benchmarks).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+from tqdm import tqdm
+
+from human_tracker.drawing import annotate
+from human_tracker.evaluation.metrics import Box, summarise
+from human_tracker.evaluation.plots import plot_run
+from human_tracker.io.images import to_mono8
+from human_tracker.io.sequences import open_sequence
+from human_tracker.vision.background import BackgroundModel
+from human_tracker.vision.optical_flow import OpticalFlow
+from human_tracker.vision.target import TargetParameters, TargetTracker
+from human_tracker.vision.templates import make_template
+from human_tracker.vision.tracker import TrackerParameters
+
+__all__ = ['CUES', 'TrackOptions', 'track_sequence', 'POSE_COLUMNS']
+
+CUES = ('background', 'flow', 'none')
+POSE_COLUMNS = (
+    'frame',
+    'stamp_ns',
+    'x',
+    'y',
+    'scale',
+    'theta',
+    'confidence',
+    'status',
+    'box_x',
+    'box_y',
+    'box_w',
+    'box_h',
+)
+
+
+@dataclass
+class TrackOptions:
+    """What to track and how.
+
+    Attributes:
+        target: Built-in template name (``head``).
+        init: First-frame box (x, y, w, h) of the target's reference region, or None to start
+            from motion.
+        cue: Motion cue: ``background``, ``flow`` or ``none``.
+        filter_parameters: Particle-filter constants.
+        target_parameters: Cue combination, initialisation and loss constants.
+        video: Whether to write the annotated video.
+        progress: Whether to show a progress bar.
+    """
+
+    target: str = 'head'
+    init: Box | None = None
+    cue: str = 'background'
+    filter_parameters: TrackerParameters = field(default_factory=TrackerParameters)
+    target_parameters: TargetParameters = field(default_factory=TargetParameters)
+    video: bool = True
+    progress: bool = True
+
+
+def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -> dict[str, object]:
+    """Track ``source`` (bag, video or frame folder); write poses.csv, summary.json, video, plots to ``out``.
+
+    Returns:
+        The summary (also written to ``summary.json``).
+
+    Raises:
+        SequenceError: The source cannot be read.
+        ValueError: A bad option.
+    """
+    if options.cue not in CUES:
+        raise ValueError(f'cue must be one of {", ".join(CUES)}, got {options.cue!r}')
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    sequence = open_sequence(source)
+    template = make_template(options.target)
+    tracker = TargetTracker(template, options.filter_parameters, options.target_parameters)
+    background, flow = BackgroundModel(), OpticalFlow()
+    predicted: list[Box | None] = []
+    truth: list[Box | None] = []
+    writer = None
+    elapsed = 0.0
+    with (out / 'poses.csv').open('w', newline='') as handle:
+        table = csv.writer(handle)
+        table.writerow(POSE_COLUMNS)
+        for frame in tqdm(sequence, desc=f'tracking {sequence.name}', unit='frame', disable=not options.progress):
+            start = time.perf_counter()
+            gray = to_mono8(frame.image)
+            motion = (
+                background.apply(gray)
+                if options.cue == 'background'
+                else flow.apply(gray)[1]
+                if options.cue == 'flow'
+                else None
+            )
+            if frame.index == 0 and options.init is not None:
+                tracker.initialise_from_box(options.init)
+            result = tracker.process(gray, motion)
+            elapsed += time.perf_counter() - start
+            estimate = result.estimate
+            box = estimate.box if result.tracking else None
+            predicted.append(box)
+            truth.append(frame.ground_truth)
+            if estimate is None:
+                table.writerow([frame.index, frame.stamp_ns, '', '', '', '', '', result.status, '', '', '', ''])
+            else:
+                x, y, s, theta = (round(float(v), 4) for v in estimate.state)
+                shown = [round(v, 2) for v in estimate.box] if result.tracking else ['', '', '', '']
+                table.writerow(
+                    [frame.index, frame.stamp_ns, x, y, s, theta, round(estimate.confidence, 4), result.status, *shown]
+                )
+            if options.video:
+                label = f'{sequence.name} {frame.index} {result.status}'
+                image = annotate(
+                    frame.image,
+                    contour=None if estimate is None else estimate.contour,
+                    box=box,
+                    truth=frame.ground_truth,
+                    label=label,
+                )
+                if writer is None:
+                    height, width = image.shape[:2]
+                    writer = cv2.VideoWriter(
+                        str(out / 'tracking.mp4'), cv2.VideoWriter_fourcc(*'mp4v'), sequence.fps, (width, height)
+                    )
+                writer.write(image)
+    if writer is not None:
+        writer.release()
+    summary: dict[str, object] = {
+        'source': str(source),
+        'target': options.target,
+        'cue': options.cue,
+        'init': list(options.init) if options.init is not None else 'motion',
+        'frames': len(predicted),
+        'frames_tracked': int(sum(b is not None for b in predicted)),
+        'fps': round(len(predicted) / elapsed, 2) if elapsed > 0 else None,
+        'ms_per_frame': round(1000 * elapsed / max(len(predicted), 1), 3),
+    }
+    if any(t is not None for t in truth):
+        summary.update(summarise(predicted, truth))
+    summary['plots'] = [p.name for p in plot_run(out, predicted, truth, sequence.name)]
+    (out / 'summary.json').write_text(json.dumps(summary, indent=2) + '\n')
+    return summary
+
+
+def read_poses(path: str | Path) -> list[Box | None]:
+    """Boxes from a ``poses.csv`` written by :func:`track_sequence` (None where not tracked)."""
+    boxes: list[Box | None] = []
+    with Path(path).open() as handle:
+        for row in csv.DictReader(handle):
+            values = [row[k] for k in ('box_x', 'box_y', 'box_w', 'box_h')]
+            boxes.append(None if '' in values else tuple(float(v) for v in values))
+    return boxes

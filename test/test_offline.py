@@ -1,0 +1,136 @@
+"""The offline commands: track (bag, video, frame folder), eval and import."""
+
+from __future__ import annotations
+
+import csv
+import json
+import subprocess
+import sys
+
+import cv2
+import pytest
+from conftest import REAL_DATA
+
+from human_tracker.cli import main
+from human_tracker.io.bags import read_frames
+from human_tracker.io.sequences import read_groundtruth
+from human_tracker.offline import POSE_COLUMNS, TrackOptions, read_poses, track_sequence
+
+
+def test_track_a_bag_writes_every_output(tmp_path, head_bag) -> None:
+    summary = track_sequence(head_bag, tmp_path, TrackOptions(progress=False))
+    assert summary['frames'] == 120 and summary['precision_20px'] >= 0.9
+    for name in (
+        'poses.csv',
+        'summary.json',
+        'tracking.mp4',
+        'trajectory.png',
+        'error.png',
+        'precision.png',
+        'success.png',
+    ):
+        assert (tmp_path / name).stat().st_size > 0, name
+    with (tmp_path / 'poses.csv').open() as handle:
+        rows = list(csv.DictReader(handle))
+    assert tuple(rows[0]) == POSE_COLUMNS and len(rows) == 120
+    assert json.loads((tmp_path / 'summary.json').read_text())['precision_20px'] == summary['precision_20px']
+    video = cv2.VideoCapture(str(tmp_path / 'tracking.mp4'))
+    assert int(video.get(cv2.CAP_PROP_FRAME_COUNT)) == 120
+
+
+def test_import_a_frame_folder_then_track_and_eval_it(tmp_path, head_bag) -> None:
+    """Frames + groundtruth.txt -> import -> bag -> track -> eval: the same figures throughout."""
+    folder = tmp_path / 'seq' / 'img'
+    folder.mkdir(parents=True)
+    boxes = []
+    for frame in list(read_frames(head_bag))[:40]:
+        image = cv2.imdecode(frame.message.data, cv2.IMREAD_COLOR)
+        cv2.imwrite(str(folder / f'{frame.index:04d}.png'), image)
+        boxes.append(frame.ground_truth if frame.index % 2 == 0 else None)  # every other frame annotated
+    (tmp_path / 'seq' / 'groundtruth.txt').write_text(
+        '\n'.join('0,0,0,0' if b is None else ','.join(f'{v:g}' for v in b) for b in boxes) + '\n'
+    )
+    assert read_groundtruth(tmp_path / 'seq' / 'groundtruth.txt') == boxes
+    init = ','.join(f'{v:g}' for v in boxes[0])
+    assert (
+        main(
+            ['track', str(tmp_path / 'seq'), '--init', init, '--out', str(tmp_path / 'folder'), '--quiet', '--no-video']
+        )
+        == 0
+    )
+    assert main(['import', str(tmp_path / 'seq'), '--out', str(tmp_path / 'bag')]) == 0
+    assert [f.ground_truth for f in read_frames(tmp_path / 'bag')] == boxes
+    assert (
+        main(
+            [
+                'track',
+                str(tmp_path / 'bag'),
+                '--init',
+                init,
+                '--out',
+                str(tmp_path / 'bag_run'),
+                '--quiet',
+                '--no-video',
+            ]
+        )
+        == 0
+    )
+    folder_summary = json.loads((tmp_path / 'folder' / 'summary.json').read_text())
+    assert folder_summary['annotated_frames'] == 20  # only annotated frames count
+    assert folder_summary['precision_20px'] >= 0.9
+    result = subprocess.run(
+        [
+            sys.executable,
+            '-m',
+            'human_tracker.cli',
+            'eval',
+            str(tmp_path / 'folder' / 'poses.csv'),
+            str(tmp_path / 'seq'),
+        ],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert json.loads(result.stdout)['precision_20px'] == folder_summary['precision_20px']
+    assert len(read_poses(tmp_path / 'folder' / 'poses.csv')) == 40
+
+
+def test_track_a_video_file(tmp_path, head_bag) -> None:
+    path = tmp_path / 'clip.avi'
+    writer = None
+    for frame in list(read_frames(head_bag))[:20]:
+        image = cv2.imdecode(frame.message.data, cv2.IMREAD_COLOR)
+        writer = writer or cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*'MJPG'), 30.0, (640, 480))
+        writer.write(image)
+    writer.release()
+    summary = track_sequence(path, tmp_path / 'out', TrackOptions(progress=False, video=False, cue='flow'))
+    assert summary['frames'] == 20 and 'precision_20px' not in summary  # no ground truth for a video
+    assert summary['frames_tracked'] > 0  # started from motion by itself
+
+
+@pytest.mark.parametrize(
+    'args',
+    [
+        ['track', '/nonexistent/sequence'],
+        ['track', 'bags/head_basic', '--init', '1,2,3'],
+        ['eval', 'no.csv', 'bags/head_basic'],
+    ],
+)
+def test_bad_input_gives_a_clear_error_and_no_traceback(args: list[str]) -> None:
+    result = subprocess.run([sys.executable, '-m', 'human_tracker.cli', *args], capture_output=True, text=True)
+    assert result.returncode == 2
+    assert 'error' in result.stderr and 'Traceback' not in result.stderr
+
+
+DAVID = REAL_DATA / 'david'
+
+
+@pytest.mark.skipif(not DAVID.exists(), reason=f'{DAVID} not available')
+def test_real_sequence_david(tmp_path) -> None:
+    """A real face sequence (grey, dim office, lighting changes): the figure is reported."""
+    first = read_groundtruth(DAVID / 'groundtruth.txt')[0]
+    summary = track_sequence(DAVID, tmp_path, TrackOptions(init=first, progress=False, video=False))
+    precision, auc = summary['precision_20px'], summary['success_auc']
+    print(f'david: precision at 20 px {precision:.3f}, success AUC {auc:.3f}, {summary["fps"]} fps')
+    assert summary['frames'] == 462
+    assert summary['precision_20px'] >= 0.75

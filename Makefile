@@ -38,8 +38,14 @@ bags: $(STAMP)
 	$(PY) -m human_tracker.cli generate --all --out bags
 
 clean:
-	rm -rf $(VENV) out build install log
+	rm -rf $(VENV) .venv-contrib out build install log
 
 # Speed lives here, never in timed tests: latency and throughput of the nodes over DDS.
-bench: $(STAMP)
-	$(PY) -m human_tracker.bench --out out/bench
+CONTRIB := .venv-contrib/.installed-stamp
+$(CONTRIB): requirements-contrib.txt
+	test -x .venv-contrib/bin/python || $(PYTHON) -m venv .venv-contrib
+	.venv-contrib/bin/python -m pip install --quiet -r requirements-contrib.txt
+	touch $(CONTRIB)
+
+bench: $(STAMP) $(CONTRIB)
+	$(PY) -m human_tracker.bench --out out/bench --contrib-python .venv-contrib/bin/python

@@ -1,4 +1,12 @@
-"""``make bench``: end-to-end latency and throughput of the nodes over DDS.
+"""``make bench``: speed and accuracy, measured in one run on this machine.
+
+- speed: ms per frame of each stage and of the per-frame pipeline at 640x480 and 320x240,
+  the particle filter at 250-2000 particles, and OpenCV's trackers on the same frames;
+- accuracy: ours against CamShift, MIL, KCF and CSRT on the bundled bags and the real
+  sequences in ``../shared/data/real`` (when present), same frames, same first box;
+- latency: end-to-end over DDS, described below.
+
+Results go to ``out/bench/results.json`` and ``out/bench/results.md``.
 
 A camera simulator in this process publishes raw 640x480 bgr8 frames of a bundled bag,
 stamped with the time they are sent, to the package's nodes started as OS processes:
@@ -9,8 +17,7 @@ stamped with the time they are sent, to the package's nodes started as OS proces
 Each layout runs at 30 Hz (a camera's pace: frames are sent on a timer whatever happens)
 and at full speed (the next frame is sent as soon as the pose of the previous one arrives,
 so the figure is the chain's own rate). Latency is pose arrival time minus image stamp.
-Results go to ``out/bench/latency.json`` and ``out/bench/latency.md``. These are
-measurements of this machine at this moment: read the ratios, not the absolute values.
+These are measurements of this machine at this moment: read the ratios, not the digits.
 """
 
 from __future__ import annotations
@@ -141,53 +148,119 @@ def measure_latency(
     }
 
 
-def _markdown(rows: list[dict[str, object]]) -> str:
-    lines = [
-        '| layout | rate | frames sent | poses received | throughput (Hz) | latency median (ms) | latency p95 (ms) |',
-        '|---|---|---|---|---|---|---|',
-    ]
-    for r in rows:
-        lines.append(
-            f'| {r["layout"]} | {r["rate"]} | {r["frames_sent"]} | {r["poses_received"]} | {r["throughput_hz"]} | '
-            f'{r["latency_ms_median"]} | {r["latency_ms_p95"]} |'
-        )
+def _table(rows: list[dict[str, object]], columns: list[str]) -> str:
+    lines = ['| ' + ' | '.join(columns) + ' |', '|' + '---|' * len(columns)]
+    for row in rows:
+        cells = []
+        for column in columns:
+            value = row.get(column, '')
+            cells.append(f'{value:.3f}' if isinstance(value, float) else str(value))
+        lines.append('| ' + ' | '.join(cells) + ' |')
     return '\n'.join(lines) + '\n'
+
+
+def _speed(bag: Path, contrib_python: Path | None) -> dict[str, object]:
+    from human_tracker.evaluation.accuracy import compare_on_sequence
+    from human_tracker.evaluation.speed import stage_timings
+    from human_tracker.io.sequences import open_sequence
+
+    frames = list(open_sequence(bag))
+    images, boxes = [f.image for f in frames], [f.ground_truth for f in frames]
+    stages = {'640x480': stage_timings(images, boxes), '320x240': stage_timings(images, boxes, 0.5)}
+    baselines = {row['tracker']: row['ms_per_frame'] for row in compare_on_sequence(bag, contrib_python)}
+    ours = stages['640x480']['pipeline']
+    ratios = {name: round(ms / ours, 3) for name, ms in baselines.items() if not name.startswith('ours')}
+    return {'stages_ms': stages, 'trackers_ms_640x480': baselines, 'baseline_ms_over_our_pipeline_ms': ratios}
+
+
+def _accuracy(sequences: list[Path], contrib_python: Path | None) -> list[dict[str, object]]:
+    from human_tracker.evaluation.accuracy import compare_on_sequence
+
+    rows = []
+    for path in sequences:
+        for row in compare_on_sequence(path, contrib_python):
+            rows.append({'sequence': path.name, **row})
+            print(json.dumps(rows[-1]))
+    return rows
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``python -m human_tracker.bench``."""
-    parser = argparse.ArgumentParser(description='Latency and throughput of the nodes over DDS.')
+    parser = argparse.ArgumentParser(description='Speed, accuracy and latency, measured in one run.')
     parser.add_argument('--bag', type=Path, default=Path('bags/head_basic'))
     parser.add_argument('--out', type=Path, default=Path('out/bench'))
-    parser.add_argument('--frames', type=int, default=240, help='frames per run (the bag is looped)')
+    parser.add_argument('--frames', type=int, default=240, help='frames per latency run (the bag is looped)')
+    parser.add_argument('--contrib-python', type=Path, help='python of the virtualenv with opencv-contrib (KCF, CSRT)')
+    parser.add_argument('--real-data', type=Path, default=Path('../shared/data/real'))
+    parser.add_argument('--sections', default='speed,accuracy,latency')
     options = parser.parse_args(argv)
     options.out.mkdir(parents=True, exist_ok=True)
-    os.environ.setdefault('ROS_DOMAIN_ID', str(150 + os.getpid() % 50))
-    os.environ.update(
-        {
-            k: v
-            for k, v in ros_environment(int(os.environ['ROS_DOMAIN_ID'])).items()
-            if k.startswith(('ROS_', 'RMW_', 'FASTRTPS_'))
-        }
-    )
-    bag_frames = list(read_frames(options.bag))
-    images = [array_to_image(message_to_bgr8(f.message), 'bgr8') for f in bag_frames]
-    frames = [images[i % len(images)] for i in range(options.frames)]
-    box = [float(v) for v in bag_frames[0].ground_truth]
-    rclpy.init()
-    rows = []
-    try:
-        for layout in ('pipeline', 'separate'):
-            for rate in (30.0, None):
-                row = measure_latency(layout, rate, frames, box, options.out)
-                rows.append(row)
-                print(json.dumps(row))
-    finally:
-        rclpy.try_shutdown()
-    (options.out / 'latency.json').write_text(json.dumps(rows, indent=2) + '\n')
-    table = _markdown(rows)
-    (options.out / 'latency.md').write_text(table)
-    print(table)
+    sections = set(options.sections.split(','))
+    contrib = options.contrib_python if options.contrib_python and options.contrib_python.exists() else None
+    results: dict[str, object] = {}
+    report = ['# human_tracker benchmark (this machine, one run)\n']
+    if 'speed' in sections:
+        speed = _speed(options.bag, contrib)
+        results['speed'] = speed
+        stage_rows = [
+            {'stage': name, **{res: values[name] for res, values in speed['stages_ms'].items()}}
+            for name in speed['stages_ms']['640x480']
+        ]
+        report += ['## ms per frame, by stage\n', _table(stage_rows, ['stage', '640x480', '320x240'])]
+        tracker_rows = [
+            {
+                'tracker': k,
+                'ms_per_frame': v,
+                'ratio_to_our_pipeline': speed['baseline_ms_over_our_pipeline_ms'].get(k, 1.0),
+            }
+            for k, v in speed['trackers_ms_640x480'].items()
+        ]
+        report += [
+            '## trackers at 640x480 (ratio > 1: slower than our pipeline)\n',
+            _table(tracker_rows, ['tracker', 'ms_per_frame', 'ratio_to_our_pipeline']),
+        ]
+    if 'accuracy' in sections:
+        sequences = sorted(p for p in Path('bags').iterdir() if p.is_dir())
+        sequences += [options.real_data / name for name in ('david', 'crossing') if (options.real_data / name).exists()]
+        results['accuracy'] = _accuracy(sequences, contrib)
+        columns = ['sequence', 'tracker', 'precision_20px', 'success_auc', 'mean_centre_error_px', 'ms_per_frame']
+        report += ['## accuracy (same frames, same first box)\n', _table(results['accuracy'], columns)]
+    if 'latency' in sections:
+        os.environ.setdefault('ROS_DOMAIN_ID', str(150 + os.getpid() % 50))
+        os.environ.update(
+            {
+                k: v
+                for k, v in ros_environment(int(os.environ['ROS_DOMAIN_ID'])).items()
+                if k.startswith(('ROS_', 'RMW_', 'FASTRTPS_'))
+            }
+        )
+        bag_frames = list(read_frames(options.bag))
+        images = [array_to_image(message_to_bgr8(f.message), 'bgr8') for f in bag_frames]
+        frames = [images[i % len(images)] for i in range(options.frames)]
+        box = [float(v) for v in bag_frames[0].ground_truth]
+        rclpy.init()
+        rows = []
+        try:
+            for layout in ('pipeline', 'separate'):
+                for rate in (30.0, None):
+                    rows.append(measure_latency(layout, rate, frames, box, options.out))
+                    print(json.dumps(rows[-1]))
+        finally:
+            rclpy.try_shutdown()
+        results['latency'] = rows
+        columns = [
+            'layout',
+            'rate',
+            'frames_sent',
+            'poses_received',
+            'throughput_hz',
+            'latency_ms_median',
+            'latency_ms_p95',
+        ]
+        report += ['## end-to-end latency over DDS\n', _table(rows, columns)]
+    (options.out / 'results.json').write_text(json.dumps(results, indent=2) + '\n')
+    (options.out / 'results.md').write_text('\n'.join(report))
+    print('\n'.join(report))
     return 0
 
 

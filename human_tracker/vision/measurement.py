@@ -79,7 +79,7 @@ def _angle_apart(a_degrees: float, b_degrees: float) -> float:
     return min(d, 180.0 - d)
 
 
-@numba.njit(cache=True, fastmath=True, nogil=True)
+@numba.njit(cache=True, fastmath=True, nogil=True, parallel=True)
 def _contour_costs(
     edges: np.ndarray,
     motion: np.ndarray,
@@ -99,7 +99,7 @@ def _contour_costs(
     num_points = points.shape[0]
     reach = int(np.ceil(search_halfwidth))
     miss = 2.0 * miss_penalty if use_motion else miss_penalty
-    for i in range(particles.shape[0]):
+    for i in numba.prange(particles.shape[0]):
         x = particles[i, 0]
         y = particles[i, 1]
         scale = particles[i, 2]

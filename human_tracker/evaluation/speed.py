@@ -1,0 +1,87 @@
+"""Milliseconds per frame of each stage and of the whole per-frame pipeline, on real frames.
+
+Every figure is the median over the frames (after one warm-up frame, so numba's compilation
+is not counted), measured in this process on this machine.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import cv2
+import numpy as np
+
+from human_tracker.io.images import message_to_bgr8, to_mono8
+from human_tracker.vision.background import BackgroundModel
+from human_tracker.vision.measurement import edge_map
+from human_tracker.vision.optical_flow import OpticalFlow
+from human_tracker.vision.target import TargetTracker
+from human_tracker.vision.templates import head_and_shoulders
+from human_tracker.vision.tracker import ContourTracker, TrackerParameters
+
+__all__ = ['PARTICLE_COUNTS', 'stage_timings']
+
+PARTICLE_COUNTS = (250, 500, 1000, 2000)
+
+
+class _RawImage:
+    """The fields of a raw bgr8 sensor_msgs/Image, for timing the conversion without ROS."""
+
+    def __init__(self, image: np.ndarray) -> None:
+        self.height, self.width = image.shape[:2]
+        self.encoding, self.is_bigendian, self.step = 'bgr8', 0, image.shape[1] * 3
+        self.data = image.tobytes()
+
+
+def _median_ms(run: Callable[[int], object], count: int) -> float:
+    run(0)  # warm-up: JIT compilation, buffers
+    times = []
+    for index in range(1, count):
+        start = time.perf_counter()
+        run(index)
+        times.append(time.perf_counter() - start)
+    return 1000.0 * float(np.median(times))
+
+
+def stage_timings(
+    frames: list[np.ndarray], boxes: list[tuple[float, float, float, float]], scale: float = 1.0
+) -> dict[str, float]:
+    """Median ms per frame of each stage on ``frames`` (BGR), resized by ``scale``.
+
+    Stages: ``conversion`` (raw Image message to BGR and grey), ``edges``, ``background``,
+    ``flow``, ``particle_filter_<P>`` (one predict-weigh-resample step with P particles), and
+    ``pipeline`` (conversion + edges + background + flow + the tracker with 500 particles,
+    motion-weighted), all on the same frames.
+    """
+    if scale != 1.0:
+        frames = [cv2.resize(f, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA) for f in frames]
+        boxes = [tuple(v * scale for v in b) for b in boxes]
+    messages = [_RawImage(f) for f in frames]
+    grays = [to_mono8(f) for f in frames]
+    edges = [edge_map(g) for g in grays]
+    template = head_and_shoulders()
+    count = len(frames)
+    results: dict[str, float] = {}
+    results['conversion'] = _median_ms(lambda i: to_mono8(message_to_bgr8(messages[i])), count)
+    results['edges'] = _median_ms(lambda i: edge_map(grays[i]), count)
+    background = BackgroundModel()
+    results['background'] = _median_ms(lambda i: background.apply(grays[i]), count)
+    flow = OpticalFlow()
+    results['flow'] = _median_ms(lambda i: flow.apply(grays[i]), count)
+    for particles in PARTICLE_COUNTS:
+        tracker = ContourTracker(template, TrackerParameters(num_particles=particles, min_scale=24.0 * scale))
+        tracker.initialise_from_box(boxes[0])
+        results[f'particle_filter_{particles}'] = _median_ms(lambda i, t=tracker: t.step(edges[i]), count)
+    target = TargetTracker(template, TrackerParameters(num_particles=500, min_scale=24.0 * scale))
+    target.initialise_from_box(boxes[0])
+    cue, motion = BackgroundModel(), OpticalFlow()
+
+    def pipeline(i: int) -> object:
+        gray = to_mono8(message_to_bgr8(messages[i]))
+        mask = cue.apply(gray)
+        motion.apply(gray)
+        return target.process(gray, mask)
+
+    results['pipeline'] = _median_ms(pipeline, count)
+    return {k: round(v, 3) for k, v in results.items()}

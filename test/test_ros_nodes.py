@@ -5,11 +5,13 @@ from __future__ import annotations
 import dataclasses
 import time
 
+import cv2
 import numpy as np
 import pytest
 import rclpy
 from conftest import REPO
 from rcl_interfaces.msg import SetParametersResult
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
@@ -19,6 +21,7 @@ from test_target import track
 from human_tracker.demo import node_arguments
 from human_tracker.evaluation.metrics import summarise
 from human_tracker.io.bags import CAMERA_TOPIC, COMPRESSED_CAMERA_TOPIC, read_frames, write_scene_bag
+from human_tracker.ros.collector import PoseCollector
 from human_tracker.ros.processes import NodeProcess
 from human_tracker.scenes.generator import SCENES
 from human_tracker.vision.camera import default_camera_matrix
@@ -176,3 +179,53 @@ def test_invalid_parameter_at_start_is_refused_with_a_reason(tmp_path) -> None:
     assert tracker.wait(60.0) == 2
     assert time.monotonic() - started < 60
     assert "image_transport must be 'raw' or 'compressed'" in tracker.output()
+
+
+def test_a_looping_replay_starts_the_tracker_over(tmp_path, head_bag) -> None:
+    """bag_play --loop: stamps jump back at each loop; the nodes reset and go on, nothing is skipped."""
+    from human_tracker.io.bags import write_bag
+
+    short = [
+        (f.stamp_ns, cv2.imdecode(f.message.data, cv2.IMREAD_COLOR), f.ground_truth)
+        for f in list(read_frames(head_bag))[:20]
+    ]
+    bag = write_bag(tmp_path / 'short', short)
+    env = environment()
+    tracker = NodeProcess(
+        'human_tracker.ros.tracker_node',
+        node_arguments(COMPRESSED_CAMERA_TOPIC, True, short[0][2]),
+        env,
+        tmp_path / 'tracker.log',
+    )
+    player = NodeProcess(
+        'human_tracker.ros.bag_play',
+        [str(bag), '--loop', '--rate', '2.0', '--wait-for-subscribers', COMPRESSED_CAMERA_TOPIC, '1'],
+        env,
+        tmp_path / 'bag_play.log',
+    )
+    rclpy.init()
+    collector = PoseCollector()
+    executor = SingleThreadedExecutor()
+    executor.add_node(collector)
+    try:
+        tracker.start()
+        assert collector.wait_for_publisher(executor, 60.0), tracker.output()
+        player.start()
+        deadline = time.monotonic() + 30.0
+        diagnostics: dict[str, str] = {}
+        while time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+            diagnostics = collector.diagnostics.get('/tracker_node', {})
+            if int(diagnostics.get('time_resets', 0)) >= 2 and int(diagnostics.get('frames_processed', 0)) >= 50:
+                break
+    finally:
+        player.stop()
+        assert tracker.stop() == 0
+        executor.shutdown()
+        collector.destroy_node()
+        rclpy.try_shutdown()
+    print(f'tracker_node diagnostics after looping: {diagnostics}')
+    assert int(diagnostics['time_resets']) >= 2
+    assert int(diagnostics['frames_processed']) >= 50
+    assert diagnostics['frames_skipped'] == '0'
+    assert diagnostics['state'] == 'TRACKING'

@@ -63,6 +63,9 @@ class BackgroundNode(ImageStage):
     def _apply(self, parameters: BackgroundParameters) -> None:
         self.model.parameters = parameters
 
+    def reset_state(self) -> None:
+        self.model.reset()
+
     def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         self.model.reset()
         response.success = True

@@ -64,6 +64,10 @@ class OpticalFlowNode(ImageStage):
     def _apply(self, parameters: FlowParameters) -> None:
         self.flow = OpticalFlow(parameters, previous=self.flow.previous)
 
+    def reset_state(self) -> None:
+        self.flow.reset()
+        self.previous_stamp = None
+
     def _on_camera_info(self, msg: CameraInfo) -> None:
         k = np.asarray(msg.k, dtype=np.float64).reshape(3, 3)
         if k[0, 0] > 0 and k[1, 1] > 0:

@@ -78,6 +78,8 @@ class ImageStage(Node):
         super().__init__(name, **kwargs)
         self.counters = FrameCounters()
         self.timer_stats = StageTimer()
+        self.last_stamp_ns = -1
+        self.time_resets = 0
         self._bindings: list[tuple[Sequence[ParameterSpec], Callable[[], Any], Callable[[Any], None]]] = []
         self.diagnostics_pub = self.create_publisher(DiagnosticArray, '/diagnostics', RESULT_QOS)
         period = declare(
@@ -160,9 +162,28 @@ class ImageStage(Node):
         self.process_frame(image, msg.header)
 
     def process_frame(self, image: np.ndarray, header: Any, **cues: Any) -> object:
-        """Count, time and process one converted frame (the pipeline calls this directly)."""
+        """Count, time and process one converted frame (the pipeline calls this directly).
+
+        Time is checked first: a frame stamped like the last one is a duplicate (skipped and
+        counted); a stamp earlier than the last one (a bag replay that loops, a clock reset)
+        starts a new sequence: the stage's state is reset (counted) and the frame processed.
+        """
         self.counters.received += 1
         self.timer_stats.arrived()
+        stamp = stamp_ns(header)
+        if stamp == self.last_stamp_ns:
+            self.counters.skipped += 1
+            self.get_logger().warn('frame skipped: same stamp as the previous frame', throttle_duration_sec=5.0)
+            return None
+        if stamp < self.last_stamp_ns:
+            self.time_resets += 1
+            self.get_logger().warn(
+                f'time went back by {(self.last_stamp_ns - stamp) / 1e9:.3f} s (replay loop or clock reset): '
+                'state reset',
+                throttle_duration_sec=5.0,
+            )
+            self.reset_state()
+        self.last_stamp_ns = stamp
         start = time.perf_counter()
         result = self.handle_frame(image, header, **cues)
         if result is not DEFERRED:
@@ -176,12 +197,16 @@ class ImageStage(Node):
         """
         raise NotImplementedError
 
+    def reset_state(self) -> None:
+        """Forget everything learnt from earlier frames (time went backwards)."""
+
     def diagnostics_state(self) -> tuple[str, dict[str, Any]]:
         """The state word and extra key-values for /diagnostics."""
         return 'OK', {}
 
     def _publish_diagnostics(self) -> None:
         state, extra = self.diagnostics_state()
+        extra = {'time_resets': self.time_resets, **extra}
         status = diagnostic_status(self, self.counters, self.timer_stats, state=state, extra=extra)
         publish_diagnostics(self, self.diagnostics_pub, [status])
 

@@ -145,6 +145,9 @@ class TrackerNode(ImageStage):
             low=0.0,
             high=10.0,
         )
+        self.max_gap = declare(
+            self, 'max_gap', 1.0, 'Seconds between frames after which the target counts as lost.', low=0.0, high=3600.0
+        )
         self.max_pending = declare(
             self,
             'max_pending',
@@ -156,7 +159,7 @@ class TrackerNode(ImageStage):
         )
 
         self.camera_matrix: np.ndarray | None = None
-        self.last_stamp_ns = -1
+        self.last_tracked_ns = -1
         self.last_result: TargetResult | None = None
         self.unmatched = 0
         self.pending: deque[tuple[int, float, np.ndarray, Any]] = deque()
@@ -188,6 +191,14 @@ class TrackerNode(ImageStage):
 
     def _apply_target(self, parameters: TargetParameters) -> None:
         self.tracker.parameters = parameters
+
+    def reset_state(self) -> None:
+        """Time went backwards: start over (the initial box applies again, held frames are dropped)."""
+        self.tracker.reset()
+        self.counters.skipped += len(self.pending)
+        self.pending.clear()
+        self.masks.clear()
+        self.last_tracked_ns = -1
 
     def _on_camera_info(self, msg: CameraInfo) -> None:
         k = np.asarray(msg.k, dtype=np.float64).reshape(3, 3)
@@ -223,7 +234,7 @@ class TrackerNode(ImageStage):
             start = time.perf_counter()
             self.track(image, header, mask)
             self.timer_stats.took(time.perf_counter() - start)
-        for stale in [s for s in self.masks if s <= self.last_stamp_ns]:
+        for stale in [s for s in self.masks if s <= self.last_tracked_ns]:
             del self.masks[stale]
 
     def handle_frame(self, image: np.ndarray, header: Any, motion: np.ndarray | None = None) -> object:
@@ -237,11 +248,14 @@ class TrackerNode(ImageStage):
     def track(self, image: np.ndarray, header: Any, motion: np.ndarray | None) -> TargetResult | None:
         """Run the tracker on one frame and publish what it found under ``header``."""
         stamp = stamp_ns(header)
-        if stamp <= self.last_stamp_ns:
-            self.counters.skipped += 1
-            self.get_logger().warn('frame skipped: stamp not newer than the last one', throttle_duration_sec=5.0)
-            return None
-        self.last_stamp_ns = stamp
+        if self.last_tracked_ns >= 0 and stamp - self.last_tracked_ns > self.max_gap * 1e9:
+            # After a gap the dynamics predict nothing: let motion restart the filter.
+            self.tracker.mark_lost()
+            self.get_logger().warn(
+                f'{(stamp - self.last_tracked_ns) / 1e9:.2f} s since the last frame: target marked lost',
+                throttle_duration_sec=5.0,
+            )
+        self.last_tracked_ns = stamp
         gray = to_mono8(image)
         if motion is not None and motion.shape != gray.shape:
             self.counters.reject('mask_size')

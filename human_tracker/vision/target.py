@@ -163,6 +163,11 @@ class TargetTracker:
         self.status = TRACKING
         self.weak_frames = 0
 
+    def mark_lost(self) -> None:
+        """Declare the target lost (the next motion hypothesis may restart the filter)."""
+        if self.status == TRACKING:
+            self.status = LOST
+
     def reset(self) -> None:
         """Forget the target; wait for motion or a box."""
         self.filter.reset()

@@ -96,11 +96,10 @@ def test_motion_stage_and_tracker_in_separate_processes(
     motion = NodeProcess(
         f'human_tracker.ros.{stage}', node_arguments(COMPRESSED_CAMERA_TOPIC, True), env, tmp_path / 'stage.log'
     )
-    # A long match timeout: on a loaded machine a late mask must still be waited for.
-    tracker_args = node_arguments(COMPRESSED_CAMERA_TOPIC, True, motion_input=motion_input) + [
-        '-p',
-        'match_timeout:=5.0',
-    ]
+    # A long match timeout and a deep queue: on a loaded machine a late mask must still be
+    # waited for, since this test compares every frame with the core.
+    tracker_args = node_arguments(COMPRESSED_CAMERA_TOPIC, True, motion_input=motion_input)
+    tracker_args += ['-p', 'match_timeout:=5.0', '-p', 'max_pending:=500']
     tracker = NodeProcess('human_tracker.ros.tracker_node', tracker_args, env, tmp_path / 'tracker.log')
     collector = replay_and_collect(
         [motion, tracker], bag, COMPRESSED_CAMERA_TOPIC, tmp_path, len(frames), diagnostics_of='/tracker_node'

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 from geometry_msgs.msg import Point32, PolygonStamped, PoseWithCovarianceStamped
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CameraInfo, Image
 
 from human_tracker.drawing import annotate
@@ -172,7 +173,11 @@ class TrackerNode(ImageStage):
         if not subscribe_image:
             self.motion_input = 'none'  # a pipeline hands the masks over with the frames
         if self.motion_input != 'none':
-            self.create_subscription(Image, self.motion_input, self._on_mask, RESULT_QOS)
+            # Masks queue as deep as the frames that may wait for them, so none is dropped.
+            mask_qos = QoSProfile(
+                depth=4 * self.max_pending, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST
+            )
+            self.create_subscription(Image, self.motion_input, self._on_mask, mask_qos)
             self.create_timer(0.02, self._drain)
         self._warm_up()
         self.get_logger().info(

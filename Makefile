@@ -21,6 +21,8 @@ $(STAMP): requirements.txt requirements-dev.txt
 	$(PY) -m pip install --quiet -r requirements-dev.txt
 	# The checkout itself goes on the venv's path (an editable install without a build step).
 	$(PY) -c 'import site, sys; open(site.getsitepackages()[0] + "/human_tracker_checkout.pth", "w").write(sys.argv[1])' $(CURDIR)
+	printf '#!/bin/sh\nexec "$$(dirname "$$0")/python" -m human_tracker.cli "$$@"\n' > $(VENV)/bin/human_tracker
+	chmod +x $(VENV)/bin/human_tracker
 	touch $(STAMP)
 
 demo: $(STAMP)

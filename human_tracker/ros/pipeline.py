@@ -12,15 +12,12 @@ import sys
 from typing import Any
 
 import numpy as np
-import rclpy
-import rclpy.logging
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 
 from human_tracker.ros.background_node import BackgroundNode
 from human_tracker.ros.common import declare
 from human_tracker.ros.optical_flow_node import OpticalFlowNode
-from human_tracker.ros.stage import ImageStage
+from human_tracker.ros.stage import ImageStage, run_nodes
 from human_tracker.ros.tracker_node import TrackerNode
 
 __all__ = ['MOTION_CUES', 'CameraSubscriber', 'build_pipeline', 'main']
@@ -64,26 +61,7 @@ def build_pipeline() -> list[Node]:
 
 def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run human_tracker pipeline``; returns the exit code."""
-    rclpy.init(args=args)
-    nodes: list[Node] = []
-    executor = SingleThreadedExecutor()
-    code = 0
-    try:
-        nodes = build_pipeline()
-        for node in nodes:
-            executor.add_node(node)
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except ValueError as err:
-        rclpy.logging.get_logger('pipeline').error(f'cannot start: {err}')
-        code = 2
-    finally:
-        executor.shutdown()
-        for node in nodes:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return code
+    return run_nodes(build_pipeline, args, name='pipeline')
 
 
 if __name__ == '__main__':

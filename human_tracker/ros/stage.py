@@ -20,7 +20,7 @@ import rclpy
 import rclpy.logging
 from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import SetParametersResult
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import CompressedImage, Image
@@ -36,7 +36,7 @@ from human_tracker.ros.common import (
 )
 from human_tracker.ros.image_conversion import ImageConversionError, message_to_bgr8
 
-__all__ = ['DEFERRED', 'ParameterSpec', 'ImageStage', 'spin_node', 'stamp_ns']
+__all__ = ['DEFERRED', 'ParameterSpec', 'ImageStage', 'run_nodes', 'spin_node', 'stamp_ns']
 
 DEFERRED = object()
 """Returned by ``handle_frame`` for a frame held for later (it is timed when processed)."""
@@ -211,22 +211,43 @@ class ImageStage(Node):
         publish_diagnostics(self, self.diagnostics_pub, [status])
 
 
-def spin_node(factory: Any, args: list[str] | None = None) -> int:
-    """Init rclpy, spin the node made by ``factory`` until shutdown; a bad parameter exits 2."""
+def run_nodes(
+    build: Callable[[], list[Node]],
+    args: list[str] | None = None,
+    *,
+    name: str = 'node',
+    run: Callable[[list[Node]], None] | None = None,
+) -> int:
+    """Init rclpy, build the nodes, run them (default: spin them all) until shutdown; return the exit code.
+
+    A ValueError while building or running (a parameter out of range, a missing file) is
+    logged with its reason and gives exit code 2, with no traceback.
+    """
     rclpy.init(args=args)
-    node = None
+    nodes: list[Node] = []
+    executor = SingleThreadedExecutor()
     code = 0
     try:
-        node = factory()
-        rclpy.spin(node)
+        nodes = build()
+        if run is not None:
+            run(nodes)
+        else:
+            for node in nodes:
+                executor.add_node(node)
+            executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except ValueError as err:
-        # A parameter out of its range or of the wrong kind: refuse to start, say why.
-        rclpy.logging.get_logger(getattr(factory, '__name__', 'node')).error(f'cannot start: {err}')
+        rclpy.logging.get_logger(name).error(f'cannot start: {err}')
         code = 2
     finally:
-        if node is not None:
+        executor.shutdown()
+        for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown()
     return code
+
+
+def spin_node(factory: Callable[[], Node], args: list[str] | None = None) -> int:
+    """Spin the one node ``factory`` makes (see :func:`run_nodes`)."""
+    return run_nodes(lambda: [factory()], args, name=getattr(factory, '__name__', 'node'))

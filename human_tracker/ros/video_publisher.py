@@ -14,10 +14,8 @@ from typing import Any
 
 import numpy as np
 import rclpy
-import rclpy.logging
 import yaml
 from rclpy.duration import Duration
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CameraInfo, Image
@@ -25,6 +23,7 @@ from sensor_msgs.msg import CameraInfo, Image
 from human_tracker.io.frames import FrameSourceError, open_frames
 from human_tracker.ros.common import declare
 from human_tracker.ros.image_conversion import array_to_image
+from human_tracker.ros.stage import run_nodes
 from human_tracker.vision.camera import default_camera_matrix
 
 __all__ = ['VideoPublisher', 'camera_info_from_file', 'default_camera_info', 'main']
@@ -154,27 +153,18 @@ class VideoPublisher(Node):
         self.published += 1
 
 
+def _publish_all(nodes: list[Node]) -> None:
+    publisher = nodes[0]
+    assert isinstance(publisher, VideoPublisher)
+    publisher.run()
+    for topic in (publisher.image_pub, publisher.info_pub):
+        topic.wait_for_all_acked(Duration(seconds=2.0))
+    publisher.get_logger().info(f'published {publisher.published} frames')
+
+
 def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run human_tracker video_publisher``; returns the exit code."""
-    rclpy.init(args=args)
-    node = None
-    code = 0
-    try:
-        node = VideoPublisher()
-        node.run()
-        for publisher in (node.image_pub, node.info_pub):
-            publisher.wait_for_all_acked(Duration(seconds=2.0))
-        node.get_logger().info(f'published {node.published} frames')
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except ValueError as err:
-        rclpy.logging.get_logger('video_publisher').error(f'cannot start: {err}')
-        code = 2
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return code
+    return run_nodes(lambda: [VideoPublisher()], args, name='video_publisher', run=_publish_all)
 
 
 if __name__ == '__main__':

@@ -27,7 +27,7 @@ import cv2
 import numpy as np
 
 from human_tracker.vision.initialisation import state_from_moments, state_from_scan
-from human_tracker.vision.measurement import ContourFit, contour_costs, edge_map
+from human_tracker.vision.measurement import edge_map
 from human_tracker.vision.particle_filter import gaussian_cloud
 from human_tracker.vision.templates import ContourTemplate
 from human_tracker.vision.tracker import ContourTracker, TrackerParameters, TrackEstimate
@@ -199,23 +199,10 @@ class TargetTracker:
         )
         cloud[0] = start
         np.clip(cloud[:, 2], fp.min_scale, fp.max_scale, out=cloud[:, 2])
-        fit = self._fit(edges, cloud, motion)
+        fit = self.filter.fit(edges, cloud, motion)
         best = int(np.argmax(fit.matched + fit.moving))
         n = self.template.num_points
         return Hypothesis(cloud[best], float(fit.matched[best]) / n, float(fit.moving[best]) / n)
-
-    def _fit(self, edges: np.ndarray, states: np.ndarray, motion: np.ndarray | None) -> ContourFit:
-        fp = self.filter.parameters
-        return contour_costs(
-            edges,
-            states,
-            self.template.points,
-            self.template.normals,
-            search_halfwidth=fp.search_halfwidth,
-            miss_penalty=fp.miss_penalty,
-            motion=motion,
-            orientation_tolerance=fp.orientation_tolerance,
-        )
 
     def process(self, gray: np.ndarray, motion: np.ndarray | None = None) -> TargetResult:
         """Track on one frame.

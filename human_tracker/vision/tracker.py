@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from human_tracker.vision.dynamics import predict
-from human_tracker.vision.measurement import contour_costs, log_likelihood, normalised_weights
+from human_tracker.vision.measurement import ContourFit, contour_costs, log_likelihood, normalised_weights
 from human_tracker.vision.particle_filter import (
     effective_sample_size,
     gaussian_cloud,
@@ -189,16 +189,7 @@ class ContourTracker:
             self.particles, self.previous, params.velocity_damping, np.asarray(params.process_noise), self.rng
         )
         np.clip(self.particles[:, 2], params.min_scale, params.max_scale, out=self.particles[:, 2])
-        fit = contour_costs(
-            edges,
-            self.particles,
-            self.template.points,
-            self.template.normals,
-            search_halfwidth=params.search_halfwidth,
-            miss_penalty=params.miss_penalty,
-            motion=motion,
-            orientation_tolerance=params.orientation_tolerance,
-        )
+        fit = self.fit(edges, self.particles, motion)
         weights = normalised_weights(log_likelihood(fit.costs, params.likelihood_gain))
         state = weighted_estimate(self.particles, weights)
         estimate = TrackEstimate(
@@ -214,6 +205,20 @@ class ContourTracker:
         self.particles = self.particles[keep]
         self.previous = self.previous[keep]
         return estimate
+
+    def fit(self, edges: np.ndarray, states: np.ndarray, motion: np.ndarray | None = None) -> ContourFit:
+        """How the template fits the edges (and motion) at ``states`` ``(P, 4)``: eqs. 2-4 per state."""
+        params = self.parameters
+        return contour_costs(
+            edges,
+            states,
+            self.template.points,
+            self.template.normals,
+            search_halfwidth=params.search_halfwidth,
+            miss_penalty=params.miss_penalty,
+            motion=motion,
+            orientation_tolerance=params.orientation_tolerance,
+        )
 
     def _resize(self, count: int) -> None:
         """Change the particle count at run time by resampling the current cloud uniformly."""

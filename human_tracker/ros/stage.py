@@ -241,9 +241,11 @@ def run_nodes(
         rclpy.logging.get_logger(name).error(f'cannot start: {err}')
         code = 2
     finally:
-        executor.shutdown()
+        # The order of rclpy.spin: detach the nodes from the executor before destroying them.
         for node in nodes:
+            executor.remove_node(node)
             node.destroy_node()
+        executor.shutdown()
         rclpy.try_shutdown()
     return code
 

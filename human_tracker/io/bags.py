@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypeVar
 
 import cv2
 import numpy as np
@@ -27,6 +28,7 @@ __all__ = [
     'COMPRESSED_CAMERA_TOPIC',
     'CAMERA_INFO_TOPIC',
     'ground_truth_topic',
+    'guarded',
     'write_bag',
     'write_scene_bag',
     'read_frames',
@@ -40,10 +42,28 @@ _IMAGE_TYPES = ('sensor_msgs/msg/Image', 'sensor_msgs/msg/CompressedImage')
 
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
 Box = tuple[float, float, float, float]
+T = TypeVar('T')
 
 
 class BagError(RuntimeError):
     """A bag cannot be read or holds no usable camera topic; the message says why."""
+
+
+def guarded(items: Iterable[T], path: Path) -> Iterator[T]:
+    """Iterate over what a bag reader yields, turning any error it raises into a BagError.
+
+    A corrupted file can make the reader fail in arbitrary ways (struct, overflow, key or
+    decompression errors); only the reader's own ``next`` is guarded, never the consumer.
+    """
+    iterator = iter(items)
+    while True:
+        try:
+            item = next(iterator)
+        except StopIteration:
+            return
+        except Exception as err:
+            raise BagError(f'{path}: corrupt or unreadable bag ({type(err).__name__}: {err})') from err
+        yield item
 
 
 def ground_truth_topic(target: str) -> str:
@@ -184,6 +204,13 @@ class BagFrame:
     ground_truth: tuple[float, float, float, float] | None
 
 
+def _deserialize(reader: AnyReader, raw: bytes, msgtype: str, path: Path) -> object:
+    try:
+        return reader.deserialize(raw, msgtype)
+    except Exception as err:
+        raise BagError(f'{path}: a {msgtype} message cannot be decoded ({type(err).__name__}: {err})') from err
+
+
 def _stamp_ns(msg: object) -> int:
     stamp = msg.header.stamp  # type: ignore[attr-defined]
     return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
@@ -218,16 +245,16 @@ def read_frames(path: str | Path, *, camera_topic: str | None = None, target: st
             camera = cameras[0]
             truth_connections = [c for c in reader.connections if c.topic == ground_truth_topic(target)]
             truth: dict[int, tuple[float, float, float, float] | None] = {}
-            for conn, _, raw in reader.messages(connections=truth_connections):
-                polygon = reader.deserialize(raw, conn.msgtype)
+            for conn, _, raw in guarded(reader.messages(connections=truth_connections), path):
+                polygon = _deserialize(reader, raw, conn.msgtype, path)
                 points = np.array([[p.x, p.y] for p in polygon.polygon.points], dtype=np.float64)
                 box = None
                 if len(points):
                     lo, hi = points.min(axis=0), points.max(axis=0)
                     box = (float(lo[0]), float(lo[1]), float(hi[0] - lo[0]), float(hi[1] - lo[1]))
                 truth[_stamp_ns(polygon)] = box
-            for index, (conn, _, raw) in enumerate(reader.messages(connections=[camera])):
-                msg = reader.deserialize(raw, conn.msgtype)
+            for index, (conn, _, raw) in enumerate(guarded(reader.messages(connections=[camera]), path)):
+                msg = _deserialize(reader, raw, conn.msgtype, path)
                 stamp = _stamp_ns(msg)
                 yield BagFrame(index, stamp, msg, truth.get(stamp))
     except (AnyReaderError, OSError) as err:

@@ -142,10 +142,11 @@ def _to_8bit(values: np.ndarray) -> np.ndarray:
     if not finite.any():
         raise ImageConversionError('float image has no finite value')
     lo, hi = float(values[finite].min()), float(values[finite].max())
-    scaled = np.zeros(values.shape, dtype=np.float32)
+    scaled = np.zeros(values.shape, dtype=np.float64)
     if hi > lo:
-        scaled[finite] = (values[finite] - lo) * (255.0 / (hi - lo))
-    return scaled.astype(np.uint8)
+        # float64: a float32 range can span ±3e38, whose difference overflows float32.
+        scaled[finite] = (values[finite].astype(np.float64) - lo) * (255.0 / (hi - lo))
+    return np.clip(scaled, 0.0, 255.0).astype(np.uint8)
 
 
 def to_bgr8(pixels: np.ndarray, encoding: str) -> np.ndarray:

@@ -30,6 +30,8 @@ from rosbags.rosbag2 import ReaderError
 from rosgraph_msgs.msg import Clock
 from std_srvs.srv import Trigger
 
+from human_tracker.io.bags import BagError, guarded
+
 __all__ = ['BagPlayer', 'main', 'message_class']
 
 _DEFAULT_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST)
@@ -143,7 +145,9 @@ class BagPlayer(Node):
         """
         start_ns = self.reader.start_time + int(start_offset * 1e9)
         wall_start = time.monotonic()
-        for conn, timestamp, raw in self.reader.messages(connections=self.connections, start=start_ns):
+        for conn, timestamp, raw in guarded(
+            self.reader.messages(connections=self.connections, start=start_ns), self.bag
+        ):
             if not self.playing.is_set():
                 paused_at = time.monotonic()
                 self.playing.wait()
@@ -222,7 +226,7 @@ def main(args: list[str] | None = None) -> int:
                 break
         player.finish()
         player.get_logger().info(f'played {player.published} messages from {bag}')
-    except (AnyReaderError, ReaderError, ValueError, OSError) as err:
+    except (AnyReaderError, ReaderError, BagError, ValueError, OSError) as err:
         print(f'bag_play: error: {err}', file=sys.stderr)
         code = 1
     except (KeyboardInterrupt, ExternalShutdownException):

@@ -185,7 +185,14 @@ class ImageStage(Node):
             self.reset_state()
         self.last_stamp_ns = stamp
         start = time.perf_counter()
-        result = self.handle_frame(image, header, **cues)
+        try:
+            result = self.handle_frame(image, header, **cues)
+        except Exception as err:  # a perception node must outlive one bad frame
+            self.counters.reject(f'error_{type(err).__name__}')
+            self.get_logger().error(
+                f'frame failed ({type(err).__name__}: {err}); going on with the next', throttle_duration_sec=5.0
+            )
+            return None
         if result is not DEFERRED:
             self.timer_stats.took(time.perf_counter() - start)
         return result

@@ -11,7 +11,7 @@ export RMW_IMPLEMENTATION ?= rmw_fastrtps_cpp
 export FASTRTPS_DEFAULT_PROFILES_FILE ?= $(CURDIR)/config/fastdds_large_shm.xml
 export PYTHONHASHSEED := 0
 
-.PHONY: demo test bench lint bags clean venv
+.PHONY: demo test bench soak lint bags clean venv
 
 venv: $(STAMP)
 
@@ -51,3 +51,7 @@ $(CONTRIB): requirements-contrib.txt
 
 bench: $(STAMP) $(CONTRIB)
 	$(PY) -m human_tracker.bench --out out/bench --contrib-python .venv-contrib/bin/python
+
+# Issue-7 soak: 100,000 looped frames through the pipeline's nodes; memory and accounting.
+soak: $(STAMP)
+	$(PY) -m human_tracker.evaluation.soak --frames 100000 --out out/bench/soak.json

@@ -167,17 +167,25 @@ def test_params_file_loads_and_gains_change_at_run_time(tmp_path) -> None:
     assert "parameters changed: {'likelihood_gain': 0.02}" in tracker.output()
 
 
-def test_invalid_parameter_at_start_is_refused_with_a_reason(tmp_path) -> None:
+@pytest.mark.parametrize(
+    ('parameter', 'reason'),
+    [
+        ('image_transport:=carrier_pigeon', "image_transport must be 'raw' or 'compressed'"),
+        ('num_particles:=-5', 'num_particles'),
+        ('num_particles:=many', 'num_particles'),
+        ('search_halfwidth:=0.0', 'search_halfwidth'),
+        ('target:=elbow', "unknown target 'elbow'"),
+        ('template_file:=/nonexistent/template.json', 'cannot load template'),
+        ('motion_mode:=telepathy', 'motion_mode must be one of'),
+    ],
+)
+def test_nonsense_parameters_at_start_are_refused_with_a_reason(tmp_path, parameter: str, reason: str) -> None:
     tracker = NodeProcess(
-        'human_tracker.ros.tracker_node',
-        ['--ros-args', '-p', 'image_transport:=carrier_pigeon'],
-        environment(),
-        tmp_path / 'tracker.log',
-    ).start()
-    started = time.monotonic()
-    assert tracker.wait(60.0) == 2
-    assert time.monotonic() - started < 60
-    assert "image_transport must be 'raw' or 'compressed'" in tracker.output()
+        'human_tracker.ros.tracker_node', ['--ros-args', '-p', parameter], environment(), tmp_path / 'tracker.log'
+    )
+    assert tracker.start().wait(60.0) == 2, tracker.output()
+    assert reason in tracker.output()
+    assert 'Traceback' not in tracker.output()
 
 
 def test_a_looping_replay_starts_the_tracker_over(tmp_path, head_bag) -> None:

@@ -20,6 +20,7 @@ import rclpy
 import rclpy.logging
 from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import SetParametersResult
+from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -227,8 +228,9 @@ def run_nodes(
 ) -> int:
     """Init rclpy, build the nodes, run them (default: spin them all) until shutdown; return the exit code.
 
-    A ValueError while building or running (a parameter out of range, a missing file) is
-    logged with its reason and gives exit code 2, with no traceback.
+    A ValueError or an rclpy parameter error while building or running (a parameter out of
+    range or of the wrong type, a missing file) is logged with its reason and gives exit code
+    2, with no traceback.
     """
     rclpy.init(args=args)
     nodes: list[Node] = []
@@ -244,7 +246,7 @@ def run_nodes(
             executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
-    except ValueError as err:
+    except (ValueError, ParameterException) as err:
         rclpy.logging.get_logger(name).error(f'cannot start: {err}')
         code = 2
     finally:

@@ -94,10 +94,18 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
     truth: list[Box | None] = []
     writer = None
     elapsed = 0.0
+    rejected: dict[str, int] = {}
     with (out / 'poses.csv').open('w', newline='') as handle:
         table = csv.writer(handle)
         table.writerow(POSE_COLUMNS)
         for frame in tqdm(sequence, desc=f'tracking {sequence.name}', unit='frame', disable=not options.progress):
+            if frame.image is None:
+                # Counted, written as a row, and scored as a miss where annotated: never lost.
+                rejected[frame.rejected] = rejected.get(frame.rejected, 0) + 1
+                predicted.append(None)
+                truth.append(frame.ground_truth)
+                table.writerow([frame.index, frame.stamp_ns, '', '', '', '', '', 'REJECTED', '', '', '', ''])
+                continue
             start = time.perf_counter()
             gray = to_mono8(frame.image)
             motion = (
@@ -146,9 +154,12 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
         'cue': options.cue,
         'init': list(options.init) if options.init is not None else 'motion',
         'frames': len(predicted),
+        'frames_processed': len(predicted) - sum(rejected.values()),
+        'frames_rejected': sum(rejected.values()),
+        'rejected_reasons': rejected,
         'frames_tracked': int(sum(b is not None for b in predicted)),
-        'fps': round(len(predicted) / elapsed, 2) if elapsed > 0 else None,
-        'ms_per_frame': round(1000 * elapsed / max(len(predicted), 1), 3),
+        'fps': round((len(predicted) - sum(rejected.values())) / elapsed, 2) if elapsed > 0 else None,
+        'ms_per_frame': round(1000 * elapsed / max(len(predicted) - sum(rejected.values()), 1), 3),
     }
     if any(t is not None for t in truth):
         summary.update(summarise(predicted, truth))

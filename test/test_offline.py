@@ -108,6 +108,38 @@ def test_track_a_video_file(tmp_path, head_bag) -> None:
     assert summary['frames_tracked'] > 0  # started from motion by itself
 
 
+def test_unreadable_frames_are_counted_and_the_run_goes_on(tmp_path, head_bag) -> None:
+    from human_tracker.io.bags import write_bag
+
+    frames = list(read_frames(head_bag))[:12]
+    folder = tmp_path / 'seq'
+    folder.mkdir()
+    for frame in frames:
+        cv2.imwrite(str(folder / f'{frame.index:04d}.png'), cv2.imdecode(frame.message.data, cv2.IMREAD_COLOR))
+    (folder / '0005.png').write_bytes(b'not a png')
+    summary = track_sequence(
+        folder, tmp_path / 'out', TrackOptions(init=frames[0].ground_truth, progress=False, video=False)
+    )
+    assert (summary['frames'], summary['frames_processed'], summary['frames_rejected']) == (12, 11, 1)
+    rows = list(csv.DictReader((tmp_path / 'out' / 'poses.csv').open()))
+    assert rows[5]['status'] == 'REJECTED' and rows[6]['status'] == 'TRACKING'
+    # A bag whose frame 3 holds bytes that are no JPEG: counted, the rest tracked.
+    images = [(f.stamp_ns, cv2.imdecode(f.message.data, cv2.IMREAD_COLOR), f.ground_truth) for f in frames]
+    bag = write_bag(tmp_path / 'bag', images)
+    data = bytearray((bag / 'bag.mcap').read_bytes())
+    start = data.find(
+        b'\xff\xd8\xff', data.find(b'\xff\xd8\xff', data.find(b'\xff\xd8\xff', data.find(b'\xff\xd8\xff') + 3) + 3) + 3
+    )
+    data[start : start + 600] = bytes(600)  # wipe the 4th JPEG's header and tables
+    (bag / 'bag.mcap').write_bytes(bytes(data))
+    summary = track_sequence(
+        bag, tmp_path / 'bag_out', TrackOptions(init=frames[0].ground_truth, progress=False, video=False)
+    )
+    print(f'bag with a damaged frame: {summary["frames_rejected"]} rejected {summary["rejected_reasons"]}')
+    assert summary['frames'] == 12 and summary['frames_rejected'] >= 1
+    assert summary['frames_processed'] + summary['frames_rejected'] == 12
+
+
 @pytest.mark.parametrize(
     'args',
     [

@@ -42,6 +42,9 @@ def _contrib(name: str, folder: Path, init: Box, contrib_python: Path) -> tuple[
 def compare_on_sequence(path: str | Path, contrib_python: Path | None) -> list[dict[str, object]]:
     """Rows (tracker, precision at 20 px, success AUC, mean error, ms per frame) for one sequence."""
     frames = list(open_sequence(path))
+    unreadable = [f.index for f in frames if f.image is None]
+    if unreadable:
+        raise ValueError(f'{path}: frames {unreadable[:5]} cannot be read; the comparison needs every frame')
     truth = [f.ground_truth for f in frames]
     first = next(i for i, t in enumerate(truth) if t is not None)
     init = truth[first]

@@ -34,8 +34,8 @@ class FrameSource:
     capture: cv2.VideoCapture | None = None
     files: tuple[Path, ...] = ()
 
-    def __iter__(self) -> Iterator[np.ndarray]:
-        """The frames in order, ``(H, W, 3) uint8`` BGR; unreadable folder images raise."""
+    def __iter__(self) -> Iterator[np.ndarray | None]:
+        """The frames in order, ``(H, W, 3) uint8`` BGR; None for a folder image that cannot be read."""
         if self.capture is not None:
             while True:
                 ok, image = self.capture.read()
@@ -43,10 +43,8 @@ class FrameSource:
                     return
                 yield image if image.ndim == 3 else cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
         for path in self.files:
-            image = cv2.imread(str(path), cv2.IMREAD_COLOR)
-            if image is None:
-                raise FrameSourceError(f'cannot read image {path}')
-            yield image
+            # One unreadable file must not end the sequence: the caller counts it.
+            yield cv2.imread(str(path), cv2.IMREAD_COLOR)
 
     def close(self) -> None:
         """Release the device or file."""

@@ -15,7 +15,7 @@ import numpy as np
 
 from human_tracker.io.bags import BagError, read_frames
 from human_tracker.io.frames import FrameSourceError, open_frames
-from human_tracker.io.images import message_to_bgr8
+from human_tracker.io.images import ImageConversionError, message_to_bgr8
 
 __all__ = ['SequenceError', 'SequenceFrame', 'Sequence', 'open_sequence', 'read_groundtruth', 'write_groundtruth']
 
@@ -28,12 +28,16 @@ class SequenceError(RuntimeError):
 
 @dataclass
 class SequenceFrame:
-    """One frame: index, stamp (nanoseconds), ``(H, W, 3) uint8`` BGR image, ground truth or None."""
+    """One frame: index, stamp (nanoseconds), ``(H, W, 3) uint8`` BGR image, ground truth or None.
+
+    ``image`` is None when the frame could not be read or decoded; ``rejected`` says why.
+    """
 
     index: int
     stamp_ns: int
-    image: np.ndarray
+    image: np.ndarray | None
     ground_truth: Box | None
+    rejected: str = ''
 
 
 @dataclass
@@ -48,14 +52,19 @@ class Sequence:
         try:
             if _is_bag(self.path):
                 for frame in read_frames(self.path):
-                    yield SequenceFrame(frame.index, frame.stamp_ns, message_to_bgr8(frame.message), frame.ground_truth)
+                    try:
+                        image, reason = message_to_bgr8(frame.message), ''
+                    except ImageConversionError as err:
+                        image, reason = None, str(err)
+                    yield SequenceFrame(frame.index, frame.stamp_ns, image, frame.ground_truth, reason)
                 return
             source = open_frames(self.path)
             truth = read_groundtruth(self.path / 'groundtruth.txt') if self.path.is_dir() else []
             try:
                 for index, image in enumerate(source):
                     box = truth[index] if index < len(truth) else None
-                    yield SequenceFrame(index, int(round(index * 1e9 / self.fps)), image, box)
+                    reason = '' if image is not None else f'cannot read image {source.files[index]}'
+                    yield SequenceFrame(index, int(round(index * 1e9 / self.fps)), image, box, reason)
             finally:
                 source.close()
         except (BagError, FrameSourceError) as err:

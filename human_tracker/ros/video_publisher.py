@@ -109,6 +109,7 @@ class VideoPublisher(Node):
         self.image_pub = self.create_publisher(Image, 'image_raw', qos)
         self.info_pub = self.create_publisher(CameraInfo, 'camera_info', qos)
         self.published = 0
+        self.unreadable = 0
 
     def run(self) -> None:
         """Publish until the source ends (and ``loop`` is off) or rclpy shuts down."""
@@ -130,6 +131,12 @@ class VideoPublisher(Node):
                 for image in source:
                     if not rclpy.ok():
                         return
+                    if image is None:
+                        self.unreadable += 1
+                        self.get_logger().warn(
+                            'an image of the source cannot be read: skipped', throttle_duration_sec=5.0
+                        )
+                        continue
                     delay = next_due - time.monotonic()
                     if delay > 0:
                         time.sleep(delay)
@@ -159,7 +166,7 @@ def _publish_all(nodes: list[Node]) -> None:
     publisher.run()
     for topic in (publisher.image_pub, publisher.info_pub):
         topic.wait_for_all_acked(Duration(seconds=2.0))
-    publisher.get_logger().info(f'published {publisher.published} frames')
+    publisher.get_logger().info(f'published {publisher.published} frames, skipped {publisher.unreadable} unreadable')
 
 
 def main(args: list[str] | None = None) -> int:

@@ -25,6 +25,7 @@ from rclpy.executors import SingleThreadedExecutor
 from human_tracker.drawing import annotate
 from human_tracker.evaluation.metrics import summarise
 from human_tracker.io.bags import CAMERA_INFO_TOPIC, read_frames
+from human_tracker.offline import POSE_COLUMNS
 from human_tracker.ros.collector import PoseCollector
 from human_tracker.ros.image_conversion import message_to_bgr8
 from human_tracker.ros.processes import NodeProcess, ros_environment
@@ -125,24 +126,9 @@ def run_demo(bag: Path, out: Path, *, domain_id: int | None = None, rate: float 
     writer = None
     with (out / 'poses.csv').open('w', newline='') as handle:
         table = csv.writer(handle)
-        table.writerow(
-            [
-                'frame',
-                'stamp_ns',
-                'x',
-                'y',
-                'scale',
-                'theta',
-                'status',
-                'pos_x_m',
-                'pos_y_m',
-                'pos_z_m',
-                'box_x',
-                'box_y',
-                'box_w',
-                'box_h',
-            ]
-        )
+        # The offline command's columns (confidence is not carried by the topics), then the
+        # metric position from the pose topic.
+        table.writerow([*POSE_COLUMNS, 'pos_x_m', 'pos_y_m', 'pos_z_m'])
         for frame in frames:
             contour = collector.contours.get(frame.stamp_ns)
             pose = collector.poses.get(frame.stamp_ns)
@@ -151,20 +137,12 @@ def run_demo(bag: Path, out: Path, *, domain_id: int | None = None, rate: float 
                 state = fit_state(template.points, contour)
                 box = box_from_state(state, template)
                 p = pose.pose.pose.position
+                metric = [round(v, 4) for v in (p.x, p.y, p.z)]
                 table.writerow(
-                    [
-                        frame.index,
-                        frame.stamp_ns,
-                        *np.round(state, 4),
-                        'TRACKING',
-                        round(p.x, 4),
-                        round(p.y, 4),
-                        round(p.z, 4),
-                        *np.round(box, 2),
-                    ]
+                    [frame.index, frame.stamp_ns, *np.round(state, 4), '', 'TRACKING', *np.round(box, 2), *metric]
                 )
             else:
-                table.writerow([frame.index, frame.stamp_ns, '', '', '', '', 'NO_POSE', '', '', '', '', '', '', ''])
+                table.writerow([frame.index, frame.stamp_ns, '', '', '', '', '', 'NO_POSE', '', '', '', '', '', '', ''])
             predicted.append(box)
             image = annotate(
                 message_to_bgr8(frame.message),

@@ -236,3 +236,47 @@ def test_a_looping_replay_starts_the_tracker_over(tmp_path, head_bag) -> None:
     assert int(diagnostics['frames_processed']) >= 50
     assert diagnostics['frames_skipped'] == '0'
     assert diagnostics['state'] == 'TRACKING'
+
+
+def test_use_sim_time_with_the_bag_clock(tmp_path, head_bag) -> None:
+    """bag_play --clock publishes /clock; nodes on use_sim_time track and stamp as usual."""
+    frames = list(read_frames(head_bag))[:30]
+    short = write_bag_for_test(tmp_path, frames)
+    args = node_arguments(COMPRESSED_CAMERA_TOPIC, True, frames[0].ground_truth) + ['-p', 'use_sim_time:=true']
+    env = environment()
+    tracker = NodeProcess('human_tracker.ros.tracker_node', args, env, tmp_path / 'tracker.log')
+    rclpy.init()
+    collector = PoseCollector()
+    executor = SingleThreadedExecutor()
+    executor.add_node(collector)
+    player = NodeProcess(
+        'human_tracker.ros.bag_play',
+        [str(short), '--clock', '--wait-for-subscribers', COMPRESSED_CAMERA_TOPIC, '1'],
+        env,
+        tmp_path / 'play.log',
+    )
+    try:
+        tracker.start()
+        assert collector.wait_for_publisher(executor, 60.0), tracker.output()
+        player.start()
+        deadline = time.monotonic() + 30.0
+        while len(collector.poses) < len(frames) and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+        diagnostics = collector.spin_until_diagnostics(executor, '/tracker_node', 5.0)
+    finally:
+        player.stop()
+        assert tracker.stop() == 0
+        executor.shutdown()
+        collector.destroy_node()
+        rclpy.try_shutdown()
+    assert sorted(collector.poses) == [f.stamp_ns for f in frames]
+    assert diagnostics.get('frames_processed') == str(len(frames))
+
+
+def write_bag_for_test(tmp_path, frames) -> object:
+    from human_tracker.io.bags import write_bag
+
+    return write_bag(
+        tmp_path / 'short',
+        [(f.stamp_ns, cv2.imdecode(f.message.data, cv2.IMREAD_COLOR), f.ground_truth) for f in frames],
+    )

@@ -20,6 +20,7 @@ import rclpy
 import rclpy.logging
 from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import SetParametersResult
+from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
@@ -92,7 +93,10 @@ class ImageStage(Node):
             high=60.0,
             read_only=True,
         )
-        self.create_timer(period, self._publish_diagnostics)
+        # Wall-clock timers: under use_sim_time a paused or finished replay stops /clock,
+        # and diagnostics (and the tracker's bounded waits) must go on.
+        self.steady_clock = Clock(clock_type=ClockType.STEADY_TIME)
+        self.create_timer(period, self._publish_diagnostics, clock=self.steady_clock)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         if subscribe_image:
             transport = declare(

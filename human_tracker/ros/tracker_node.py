@@ -178,7 +178,7 @@ class TrackerNode(ImageStage):
                 depth=4 * self.max_pending, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST
             )
             self.create_subscription(Image, self.motion_input, self._on_mask, mask_qos)
-            self.create_timer(0.02, self._drain)
+            self.create_timer(0.02, self._drain, clock=self.steady_clock)
         self._warm_up()
         self.get_logger().info(
             f'ready: tracking {target} with {filter_parameters.num_particles} particles, '

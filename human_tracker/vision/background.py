@@ -25,6 +25,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import cv2
+import numba
 import numpy as np
 
 __all__ = ['BackgroundParameters', 'BackgroundModel', 'background_decision']
@@ -106,6 +107,36 @@ def background_decision(
     return squared < bound
 
 
+@numba.njit(cache=True, fastmath=True, nogil=True)
+def _decide_and_update(
+    frame: np.ndarray,
+    mean: np.ndarray,
+    variance: np.ndarray,
+    mask: np.ndarray,
+    log_n_over_lambda: float,
+    learning_rate: float,
+    foreground_learning_rate: float,
+    min_variance: float,
+    max_variance: float,
+) -> None:
+    """Steps 1-3 of §2.4.1 in one pass per pixel (the same arithmetic as
+    :func:`background_decision` and the update); mask gets 255 on target pixels."""
+    half_log_two_pi = 0.5 * np.log(2.0 * np.pi)
+    height, width = frame.shape
+    for v in range(height):
+        for u in range(width):
+            m = mean[v, u]
+            s2 = variance[v, u]
+            d = frame[v, u] - m
+            bound = 2.0 * s2 * (log_n_over_lambda - half_log_two_pi - 0.5 * np.log(s2))
+            is_background = d * d < bound
+            mask[v, u] = 0 if is_background else 255
+            alpha = learning_rate if is_background else foreground_learning_rate
+            mean[v, u] = m + alpha * d
+            s2 = s2 + alpha * (d * d - s2)
+            variance[v, u] = min(max(s2, min_variance), max_variance)
+
+
 def _disk(radius: int) -> np.ndarray:
     return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius + 1, 2 * radius + 1))
 
@@ -146,13 +177,18 @@ class BackgroundModel:
             self.mean = frame.copy()
             self.variance = np.full(frame.shape, p.initial_variance, dtype=np.float32)
             return np.zeros(frame.shape, dtype=np.uint8)
-        background = background_decision(frame, self.mean, self.variance, p.threshold, p.intensity_levels)
-        difference = frame - self.mean
-        alpha = np.where(background, np.float32(p.learning_rate), np.float32(p.foreground_learning_rate))
-        self.mean += alpha * difference
-        self.variance += alpha * (np.square(difference) - self.variance)
-        np.clip(self.variance, p.min_variance, p.max_variance, out=self.variance)
-        mask = np.where(background, 0, 255).astype(np.uint8)
+        mask = np.empty(frame.shape, dtype=np.uint8)
+        _decide_and_update(
+            frame,
+            self.mean,
+            self.variance,
+            mask,
+            np.float32(np.log(p.intensity_levels / p.threshold)),
+            np.float32(p.learning_rate),
+            np.float32(p.foreground_learning_rate),
+            np.float32(p.min_variance),
+            np.float32(p.max_variance),
+        )
         if p.opening_radius:
             mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, _disk(p.opening_radius))
         if p.closing_radius:

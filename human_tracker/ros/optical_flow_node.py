@@ -34,6 +34,9 @@ FLOW_PARAMETERS = (
     ParameterSpec('median_size', 'Median filter aperture on the motion mask, pixels.', 0, 31),
     ParameterSpec('opening_radius', 'Opening radius on the motion mask, pixels.', 0, 50),
     ParameterSpec('closing_radius', 'Closing radius on the motion mask, pixels.', 0, 50),
+    ParameterSpec(
+        'scale', 'Image scale the flow is computed at (1: full size; smaller is faster and less accurate).', 0.05, 1.0
+    ),
 )
 
 

@@ -128,6 +128,9 @@ class FlowParameters:
         median_size: Median filter aperture on the motion mask.
         opening_radius: Opening radius on the motion mask, pixels.
         closing_radius: Closing radius joining the moving region's parts, pixels.
+        scale: Image scale the flow is computed at (1: full size); the mask and flow are
+            returned at full size. 0.5 halved the flow's time on our bags but cost accuracy
+            (head_cluttered 0.94 -> 0.72 precision at 20 px), so full size is the default.
     """
 
     method: str = 'dis_fast'
@@ -136,6 +139,7 @@ class FlowParameters:
     median_size: int = 5
     opening_radius: int = 1
     closing_radius: int = 0
+    scale: float = 1.0
 
     def validate(self) -> None:
         """Raise ValueError naming the first parameter out of its range."""
@@ -143,6 +147,8 @@ class FlowParameters:
             raise ValueError(f'method must be one of {", ".join(FLOW_METHODS)}, got {self.method!r}')
         if self.min_magnitude < 0:
             raise ValueError(f'min_magnitude must be >= 0, got {self.min_magnitude}')
+        if not 0.05 <= self.scale <= 1.0:
+            raise ValueError(f'scale must be in [0.05, 1], got {self.scale}')
         if self.min_texture < 0:
             raise ValueError(f'min_texture must be >= 0, got {self.min_texture}')
         if self.median_size < 0 or self.opening_radius < 0 or self.closing_radius < 0:
@@ -186,9 +192,12 @@ class OpticalFlow:
             The first frame (or a new size) has zero flow and an empty mask.
         """
         p = self.parameters
+        full_shape = gray.shape
+        if p.scale < 1.0:
+            gray = cv2.resize(gray, None, fx=p.scale, fy=p.scale, interpolation=cv2.INTER_AREA)
         if self.previous is None or self.previous.shape != gray.shape:
             self.previous = gray.copy()
-            return np.zeros((*gray.shape, 2), np.float32), np.zeros(gray.shape, np.uint8)
+            return np.zeros((*full_shape, 2), np.float32), np.zeros(full_shape, np.uint8)
         if self._dis is None and p.method in _DIS_PRESETS:
             self._dis = cv2.DISOpticalFlow_create(_DIS_PRESETS[p.method])
         # Flow is computed backwards (current -> previous) and negated, so that it lives on
@@ -196,16 +205,21 @@ class OpticalFlow:
         # where they were one frame ago.
         flow = -dense_flow(gray, self.previous, p.method, self._dis)
         if angular_velocity is not None and camera_matrix is not None and dt > 0:
-            flow -= rotation_flow(gray.shape, camera_matrix, angular_velocity, dt)
+            scaled_k = np.diag([p.scale, p.scale, 1.0]) @ camera_matrix
+            flow -= rotation_flow(gray.shape, scaled_k, angular_velocity, dt)
         self.previous = gray.copy()
         texture = texture_energy(gray) if p.min_texture > 0 else None
         mask = motion_mask(
             flow,
-            p.min_magnitude,
+            p.min_magnitude * p.scale,
             texture=texture,
             min_texture=p.min_texture,
             median_size=p.median_size,
             opening_radius=p.opening_radius,
             closing_radius=p.closing_radius,
         )
+        if p.scale < 1.0:
+            size = (full_shape[1], full_shape[0])
+            mask = cv2.resize(mask, size, interpolation=cv2.INTER_NEAREST)
+            flow = cv2.resize(flow, size, interpolation=cv2.INTER_LINEAR) / p.scale
         return flow, mask

@@ -83,3 +83,29 @@ def test_tracker_node_counts_every_malformed_message() -> None:
     assert counters.received == MESSAGES
     assert counters.processed + counters.skipped + counters.rejected == MESSAGES
     assert counters.rejected > 1000 and counters.processed > 100 and counters.skipped > 0
+
+
+def test_a_stage_outlives_a_failing_frame() -> None:
+    """Fault injection: the background model fails on one frame; the node counts it and goes on."""
+    from human_tracker.ros.background_node import BackgroundNode
+    from human_tracker.ros.image_conversion import array_to_image
+
+    rclpy.init()
+    node = BackgroundNode()
+    try:
+        working = node.model.apply
+
+        def broken(gray: np.ndarray) -> np.ndarray:
+            raise RuntimeError('injected fault')
+
+        for index, model in enumerate([working, broken, working]):
+            node.model.apply = model
+            msg = array_to_image(np.full((8, 8, 3), 10 * index, dtype=np.uint8), 'bgr8')
+            msg.header.stamp.sec = index + 1
+            node.on_image(msg)
+        counters = node.counters
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    assert (counters.received, counters.processed, counters.rejected) == (3, 2, 1)
+    assert counters.rejected_reasons == {'error_RuntimeError': 1}

@@ -190,17 +190,25 @@ class ImageStage(Node):
             self.reset_state()
         self.last_stamp_ns = stamp
         start = time.perf_counter()
+        result = self.guarded(self.handle_frame, image, header, **cues)
+        if result is not DEFERRED:
+            self.timer_stats.took(time.perf_counter() - start)
+        return result
+
+    def guarded(self, work: Callable[..., object], *args: Any, **kwargs: Any) -> object:
+        """Run ``work``; an unexpected error is counted as a rejected frame and logged, never raised.
+
+        A perception node must outlive one bad frame: everything that processes a frame goes
+        through here, whichever callback it runs in.
+        """
         try:
-            result = self.handle_frame(image, header, **cues)
-        except Exception as err:  # a perception node must outlive one bad frame
+            return work(*args, **kwargs)
+        except Exception as err:
             self.counters.reject(f'error_{type(err).__name__}')
             self.get_logger().error(
                 f'frame failed ({type(err).__name__}: {err}); going on with the next', throttle_duration_sec=5.0
             )
             return None
-        if result is not DEFERRED:
-            self.timer_stats.took(time.perf_counter() - start)
-        return result
 
     def handle_frame(self, image: np.ndarray, header: Any, **cues: Any) -> object:
         """Process one ``(H, W, 3) uint8`` BGR frame stamped with ``header``; ``cues`` come from a pipeline.

@@ -237,7 +237,7 @@ class TrackerNode(ImageStage):
                     throttle_duration_sec=5.0,
                 )
             start = time.perf_counter()
-            self.track(image, header, mask)
+            self.guarded(self.track, image, header, mask)
             self.timer_stats.took(time.perf_counter() - start)
         for stale in [s for s in self.masks if s <= self.last_tracked_ns]:
             del self.masks[stale]

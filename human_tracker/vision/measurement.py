@@ -64,12 +64,15 @@ def edge_map(
     """
     if blur_sigma > 0:
         gray = cv2.GaussianBlur(gray, (0, 0), blur_sigma)
-    edges = cv2.Canny(gray, low_threshold, high_threshold)
-    gx = cv2.Sobel(gray, cv2.CV_32F, 1, 0, ksize=3)
-    gy = cv2.Sobel(gray, cv2.CV_32F, 0, 1, ksize=3)
-    degrees = cv2.phase(gx, gy, angleInDegrees=True)
-    orientation = (np.rint(degrees).astype(np.int32) % 180 + 1).astype(np.uint8)
-    return np.where(edges > 0, orientation, 0).astype(np.uint8)
+    # One 3x3 Sobel pass serves Canny (which would compute the same derivatives itself) and
+    # the orientation, computed only where there is an edge.
+    dx = cv2.Sobel(gray, cv2.CV_16S, 1, 0, ksize=3)
+    dy = cv2.Sobel(gray, cv2.CV_16S, 0, 1, ksize=3)
+    edges = cv2.Canny(dx, dy, low_threshold, high_threshold) > 0
+    out = np.zeros(gray.shape, dtype=np.uint8)
+    degrees = np.degrees(np.arctan2(dy[edges].astype(np.float32), dx[edges].astype(np.float32)))
+    out[edges] = (np.rint(degrees).astype(np.int32) % 180 + 1).astype(np.uint8)
+    return out
 
 
 @numba.njit(cache=True, fastmath=True, nogil=True)

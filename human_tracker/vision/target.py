@@ -236,7 +236,9 @@ class TargetTracker:
         self.weak_frames = self.weak_frames + 1 if weak else 0
         if self.weak_frames >= p.lost_frames:
             self.status = LOST
-        elif self.weak_frames == 0 and self.status == LOST:
+        elif self.weak_frames == 0 and self.status == LOST and motion is None:
+            # Without a motion cue the edge fit is the only evidence; with one, a lost target
+            # comes back only through a motion hypothesis (an edge fit on clutter is not the person).
             self.status = TRACKING
         return TargetResult(self.status, estimate, initialised)
 

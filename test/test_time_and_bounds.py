@@ -1,0 +1,88 @@
+"""Gaps in time and a missing motion stage, through the tracker node (real rclpy node objects)."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import rclpy
+from rclpy.parameter import Parameter
+
+from human_tracker.evaluation.metrics import summarise
+from human_tracker.io.bags import read_frames
+from human_tracker.ros.image_conversion import array_to_image, message_to_bgr8, to_mono8
+from human_tracker.ros.tracker_node import TrackerNode
+from human_tracker.vision.optical_flow import OpticalFlow
+from human_tracker.vision.target import TargetParameters, TargetTracker
+from human_tracker.vision.templates import head_and_shoulders
+from human_tracker.vision.tracker import TrackerParameters
+
+
+def _header(message, seconds: float):
+    message.header.stamp.sec, message.header.stamp.nanosec = divmod(int(seconds * 1e9), 10**9)
+    return message.header
+
+
+def test_after_a_gap_motion_restarts_the_filter_where_the_person_now_is() -> None:
+    """head_basic frames 0-30, then nothing for 5 s, then frames 70-100 (the person moved away)."""
+    frames = list(read_frames('bags/head_basic'))
+    images = [message_to_bgr8(f.message) for f in frames]
+    rclpy.init()
+    node = TrackerNode(subscribe_image=False)
+    flow = OpticalFlow()
+    results = {}
+    try:
+        for index in [*range(0, 31), *range(70, 100)]:
+            mask = flow.apply(to_mono8(images[index]))[1]
+            seconds = index / 30 + (5.0 if index >= 70 else 0.0)
+            header = _header(array_to_image(images[index], 'bgr8'), seconds)
+            results[index] = node.process_frame(images[index], header, motion=mask)
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    assert results[30].status == 'TRACKING'
+    restarted = [i for i in range(70, 100) if results[i].initialised]
+    statuses = ''.join(results[i].status[0] for i in range(70, 100))
+    print(f'after the 5 s gap: restarted from motion at frames {restarted}; statuses {statuses}')
+    assert restarted and restarted[0] <= 70 + 15
+    after = range(restarted[0] + 5, 100)
+    boxes = [results[i].estimate.box if results[i].tracking else None for i in after]
+    assert summarise(boxes, [frames[i].ground_truth for i in after])['precision_20px'] >= 0.9
+
+
+def test_frames_waiting_for_masks_that_never_come_stay_bounded_and_counted() -> None:
+    frames = list(read_frames('bags/head_basic'))[:40]
+    rclpy.init()
+    overrides = [
+        Parameter('motion_input', value='foreground'),
+        Parameter('max_pending', value=5),
+        Parameter('match_timeout', value=0.05),
+    ]
+    node = TrackerNode(parameter_overrides=overrides)
+    most_pending = 0
+    try:
+        for index, frame in enumerate(frames):
+            message = array_to_image(message_to_bgr8(frame.message), 'bgr8')
+            _header(message, index / 30)
+            node.on_image(message)
+            most_pending = max(most_pending, len(node.pending))
+        deadline = time.monotonic() + 5.0
+        while node.pending and time.monotonic() < deadline:
+            rclpy.spin_once(node, timeout_sec=0.05)
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    assert most_pending <= 5
+    assert node.pending == type(node.pending)()
+    assert node.counters.processed == 40 and node.unmatched == 40
+
+
+def test_zero_and_negative_time_steps_do_not_break_the_core() -> None:
+    """The core works per frame: repeated frames (dt = 0) are just more evidence."""
+    tracker = TargetTracker(head_and_shoulders(), TrackerParameters(), TargetParameters())
+    gray = np.zeros((120, 160), np.uint8)
+    gray[40:80, 60:100] = 200
+    tracker.initialise_from_box((60, 40, 40, 50))
+    for _ in range(3):
+        result = tracker.process(gray)
+    assert np.all(np.isfinite(result.estimate.state))

@@ -15,7 +15,9 @@ template as well as the person does. The target is lost when, for ``lost_frames`
 a row, fewer than ``lost_confidence`` of the points find an edge, or (with
 ``lost_motion_support`` > 0) fewer than that fraction lie on the motion mask. The second
 test suits the background cue, where a person who stands still is still foreground; with
-optical flow a still person does not move, so it stays off there.
+optical flow a still person does not move, so it stays off there. A lost target comes back
+through a motion hypothesis when a mask is given (the filter's own fit on clutter is no
+evidence of the person), and when the edges fit again when there is no mask.
 """
 
 from __future__ import annotations
@@ -225,7 +227,7 @@ class TargetTracker:
         initialised = False
         found = self.hypothesis(motion, edges) if motion is not None else None
         if found is not None and self._should_start(found, estimate):
-            self.filter.initialise(found[0])
+            self.filter.initialise(found.state)
             estimate = self.filter.step(edges, likelihood_motion)
             self.status, self.weak_frames, initialised = TRACKING, 0, True
         if estimate is None:

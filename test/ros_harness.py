@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import rclpy
@@ -16,6 +18,21 @@ from human_tracker.ros.processes import NodeProcess, ros_environment
 def environment() -> dict[str, str]:
     """This test process's private DDS domain (set in conftest)."""
     return ros_environment(int(os.environ['ROS_DOMAIN_ID']))
+
+
+@contextmanager
+def collecting() -> Iterator[tuple[PoseCollector, SingleThreadedExecutor]]:
+    """rclpy up, a PoseCollector spun by its own executor; everything torn down after."""
+    rclpy.init()
+    collector = PoseCollector()
+    executor = SingleThreadedExecutor()
+    executor.add_node(collector)
+    try:
+        yield collector, executor
+    finally:
+        executor.shutdown()
+        collector.destroy_node()
+        rclpy.try_shutdown()
 
 
 def replay_and_collect(
@@ -33,43 +50,36 @@ def replay_and_collect(
     number of frames that node must report processed in /diagnostics (instead of poses).
     """
     nodes = nodes if isinstance(nodes, list) else [nodes]
-    env = environment()
-    rclpy.init()
-    collector = PoseCollector()
-    executor = SingleThreadedExecutor()
-    executor.add_node(collector)
     player = NodeProcess(
         'human_tracker.ros.bag_play',
         [str(bag), '--rate', str(rate), '--wait-for-subscribers', camera_topic, str(len(nodes))],
-        env,
+        environment(),
         tmp / 'bag_play.log',
     )
-    try:
-        for node in nodes:
-            node.start()
-        assert collector.wait_for_publisher(executor, 60.0), '\n'.join(node.output() for node in nodes)
-        player.start()
-        deadline = time.monotonic() + 60.0
-        while player.process.poll() is None and time.monotonic() < deadline:
-            executor.spin_once(timeout_sec=0.05)
-        assert player.wait(10.0) == 0, player.output()
-        deadline = time.monotonic() + 20.0
-        while time.monotonic() < deadline:
+    with collecting() as (collector, executor):
+        try:
+            for node in nodes:
+                node.start()
+            assert collector.wait_for_publisher(executor, 60.0), '\n'.join(node.output() for node in nodes)
+            player.start()
+            deadline = time.monotonic() + 60.0
+            while player.process.poll() is None and time.monotonic() < deadline:
+                executor.spin_once(timeout_sec=0.05)
+            assert player.wait(10.0) == 0, player.output()
+            deadline = time.monotonic() + 20.0
+            while time.monotonic() < deadline:
+                if diagnostics_of:
+                    done = collector.diagnostics.get(diagnostics_of, {}).get('frames_processed') == str(expected)
+                else:
+                    done = len(collector.poses) >= expected
+                if done:
+                    break
+                executor.spin_once(timeout_sec=0.05)
             if diagnostics_of:
-                done = collector.diagnostics.get(diagnostics_of, {}).get('frames_processed') == str(expected)
-            else:
-                done = len(collector.poses) >= expected
-            if done:
-                break
-            executor.spin_once(timeout_sec=0.05)
-        if diagnostics_of:
-            collector.spin_until_diagnostics(executor, diagnostics_of, 5.0)
-    finally:
-        codes = [node.stop() for node in nodes]
-        player.stop()
-        executor.shutdown()
-        collector.destroy_node()
-        rclpy.try_shutdown()
+                collector.spin_until_diagnostics(executor, diagnostics_of, 5.0)
+        finally:
+            codes = [node.stop() for node in nodes]
+            player.stop()
     for node, code in zip(nodes, codes, strict=True):
         assert code == 0, f'{node.command} exited with {code}:\n{node.output()}'
     return collector

@@ -11,17 +11,15 @@ import pytest
 import rclpy
 from conftest import REPO
 from rcl_interfaces.msg import SetParametersResult
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
-from ros_harness import environment, replay_and_collect
+from ros_harness import collecting, environment, replay_and_collect
 from test_target import track
 
 from human_tracker.demo import node_arguments
 from human_tracker.evaluation.metrics import summarise
 from human_tracker.io.bags import CAMERA_TOPIC, COMPRESSED_CAMERA_TOPIC, read_frames, write_scene_bag
-from human_tracker.ros.collector import PoseCollector
 from human_tracker.ros.processes import NodeProcess
 from human_tracker.scenes.generator import SCENES
 from human_tracker.vision.camera import default_camera_matrix
@@ -210,27 +208,21 @@ def test_a_looping_replay_starts_the_tracker_over(tmp_path, head_bag) -> None:
         env,
         tmp_path / 'bag_play.log',
     )
-    rclpy.init()
-    collector = PoseCollector()
-    executor = SingleThreadedExecutor()
-    executor.add_node(collector)
-    try:
-        tracker.start()
-        assert collector.wait_for_publisher(executor, 60.0), tracker.output()
-        player.start()
-        deadline = time.monotonic() + 30.0
-        diagnostics: dict[str, str] = {}
-        while time.monotonic() < deadline:
-            executor.spin_once(timeout_sec=0.05)
-            diagnostics = collector.diagnostics.get('/tracker_node', {})
-            if int(diagnostics.get('time_resets', 0)) >= 2 and int(diagnostics.get('frames_processed', 0)) >= 50:
-                break
-    finally:
-        player.stop()
-        assert tracker.stop() == 0
-        executor.shutdown()
-        collector.destroy_node()
-        rclpy.try_shutdown()
+    with collecting() as (collector, executor):
+        try:
+            tracker.start()
+            assert collector.wait_for_publisher(executor, 60.0), tracker.output()
+            player.start()
+            deadline = time.monotonic() + 30.0
+            diagnostics: dict[str, str] = {}
+            while time.monotonic() < deadline:
+                executor.spin_once(timeout_sec=0.05)
+                diagnostics = collector.diagnostics.get('/tracker_node', {})
+                if int(diagnostics.get('time_resets', 0)) >= 2 and int(diagnostics.get('frames_processed', 0)) >= 50:
+                    break
+        finally:
+            player.stop()
+            assert tracker.stop() == 0
     print(f'tracker_node diagnostics after looping: {diagnostics}')
     assert int(diagnostics['time_resets']) >= 2
     assert int(diagnostics['frames_processed']) >= 50
@@ -245,30 +237,24 @@ def test_use_sim_time_with_the_bag_clock(tmp_path, head_bag) -> None:
     args = node_arguments(COMPRESSED_CAMERA_TOPIC, True, frames[0].ground_truth) + ['-p', 'use_sim_time:=true']
     env = environment()
     tracker = NodeProcess('human_tracker.ros.tracker_node', args, env, tmp_path / 'tracker.log')
-    rclpy.init()
-    collector = PoseCollector()
-    executor = SingleThreadedExecutor()
-    executor.add_node(collector)
     player = NodeProcess(
         'human_tracker.ros.bag_play',
         [str(short), '--clock', '--wait-for-subscribers', COMPRESSED_CAMERA_TOPIC, '1'],
         env,
         tmp_path / 'play.log',
     )
-    try:
-        tracker.start()
-        assert collector.wait_for_publisher(executor, 60.0), tracker.output()
-        player.start()
-        deadline = time.monotonic() + 30.0
-        while len(collector.poses) < len(frames) and time.monotonic() < deadline:
-            executor.spin_once(timeout_sec=0.05)
-        diagnostics = collector.spin_until_diagnostics(executor, '/tracker_node', 5.0)
-    finally:
-        player.stop()
-        assert tracker.stop() == 0
-        executor.shutdown()
-        collector.destroy_node()
-        rclpy.try_shutdown()
+    with collecting() as (collector, executor):
+        try:
+            tracker.start()
+            assert collector.wait_for_publisher(executor, 60.0), tracker.output()
+            player.start()
+            deadline = time.monotonic() + 30.0
+            while len(collector.poses) < len(frames) and time.monotonic() < deadline:
+                executor.spin_once(timeout_sec=0.05)
+            diagnostics = collector.spin_until_diagnostics(executor, '/tracker_node', 5.0)
+        finally:
+            player.stop()
+            assert tracker.stop() == 0
     assert sorted(collector.poses) == [f.stamp_ns for f in frames]
     assert diagnostics.get('frames_processed') == str(len(frames))
 

@@ -38,8 +38,9 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image
 
 from human_tracker.io.bags import read_frames
+from human_tracker.io.images import stamp_ns
 from human_tracker.ros.image_conversion import array_to_image, message_to_bgr8
-from human_tracker.ros.processes import NodeProcess, ros_environment
+from human_tracker.ros.processes import NodeProcess, use_ros_environment
 
 __all__ = ['measure_latency', 'main']
 
@@ -67,7 +68,7 @@ class _Camera(Node):
         return stamp
 
     def _on_pose(self, msg: PoseWithCovarianceStamped) -> None:
-        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        stamp = stamp_ns(msg.header)
         if stamp in self.sent:
             self.latency_s[stamp] = time.monotonic() - self.sent[stamp]
 
@@ -95,10 +96,9 @@ def _layout(name: str, box: list[float], env: dict[str, str], logs: Path) -> lis
 
 
 def measure_latency(
-    layout: str, rate_hz: float | None, frames: list[Image], box: list[float], logs: Path
+    layout: str, rate_hz: float | None, frames: list[Image], box: list[float], logs: Path, env: dict[str, str]
 ) -> dict[str, object]:
-    """Run one layout at ``rate_hz`` (None: full speed, closed loop) over ``frames``."""
-    env = ros_environment(int(os.environ['ROS_DOMAIN_ID']))
+    """Run one layout at ``rate_hz`` (None: full speed, closed loop) over ``frames``; nodes get ``env``."""
     nodes = _layout(layout, box, env, logs)
     camera = _Camera()
     executor = SingleThreadedExecutor()
@@ -226,14 +226,7 @@ def main(argv: list[str] | None = None) -> int:
         columns = ['sequence', 'tracker', 'precision_20px', 'success_auc', 'mean_centre_error_px', 'ms_per_frame']
         report += ['## accuracy (same frames, same first box)\n', _table(results['accuracy'], columns)]
     if 'latency' in sections:
-        os.environ.setdefault('ROS_DOMAIN_ID', str(150 + os.getpid() % 50))
-        os.environ.update(
-            {
-                k: v
-                for k, v in ros_environment(int(os.environ['ROS_DOMAIN_ID'])).items()
-                if k.startswith(('ROS_', 'RMW_', 'FASTRTPS_'))
-            }
-        )
+        env = use_ros_environment(int(os.environ.get('ROS_DOMAIN_ID', 150 + os.getpid() % 50)))
         bag_frames = list(read_frames(options.bag))
         images = [array_to_image(message_to_bgr8(f.message), 'bgr8') for f in bag_frames]
         frames = [images[i % len(images)] for i in range(options.frames)]
@@ -243,7 +236,7 @@ def main(argv: list[str] | None = None) -> int:
         try:
             for layout in ('pipeline', 'separate'):
                 for rate in (30.0, None):
-                    rows.append(measure_latency(layout, rate, frames, box, options.out))
+                    rows.append(measure_latency(layout, rate, frames, box, options.out, env))
                     print(json.dumps(rows[-1]))
         finally:
             rclpy.try_shutdown()

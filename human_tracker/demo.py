@@ -28,7 +28,7 @@ from human_tracker.io.bags import CAMERA_INFO_TOPIC, read_frames
 from human_tracker.offline import POSE_COLUMNS
 from human_tracker.ros.collector import PoseCollector
 from human_tracker.ros.image_conversion import message_to_bgr8
-from human_tracker.ros.processes import NodeProcess, ros_environment
+from human_tracker.ros.processes import NodeProcess, use_ros_environment
 from human_tracker.vision.templates import fit_state, head_and_shoulders
 from human_tracker.vision.tracker import box_from_state
 
@@ -72,10 +72,7 @@ def run_demo(bag: Path, out: Path, *, domain_id: int | None = None, rate: float 
     compressed = hasattr(first.message, 'format')
     camera_topic = '/camera/image_raw/compressed' if compressed else '/camera/image_raw'
     domain_id = domain_id if domain_id is not None else 100 + os.getpid() % 100
-    env = ros_environment(domain_id)
-    os.environ.update({k: env[k] for k in ('ROS_DOMAIN_ID', 'ROS_AUTOMATIC_DISCOVERY_RANGE', 'RMW_IMPLEMENTATION')})
-    if 'FASTRTPS_DEFAULT_PROFILES_FILE' in env:
-        os.environ['FASTRTPS_DEFAULT_PROFILES_FILE'] = env['FASTRTPS_DEFAULT_PROFILES_FILE']
+    env = use_ros_environment(domain_id)
 
     rclpy.init()
     collector = PoseCollector()

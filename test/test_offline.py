@@ -13,7 +13,7 @@ from conftest import REAL_DATA
 
 from human_tracker.cli import main
 from human_tracker.io.bags import read_frames
-from human_tracker.io.sequences import read_groundtruth
+from human_tracker.io.sequences import read_groundtruth, write_groundtruth
 from human_tracker.offline import POSE_COLUMNS, TrackOptions, read_poses, track_sequence
 
 
@@ -47,9 +47,7 @@ def test_import_a_frame_folder_then_track_and_eval_it(tmp_path, head_bag) -> Non
         image = cv2.imdecode(frame.message.data, cv2.IMREAD_COLOR)
         cv2.imwrite(str(folder / f'{frame.index:04d}.png'), image)
         boxes.append(frame.ground_truth if frame.index % 2 == 0 else None)  # every other frame annotated
-    (tmp_path / 'seq' / 'groundtruth.txt').write_text(
-        '\n'.join('0,0,0,0' if b is None else ','.join(f'{v:g}' for v in b) for b in boxes) + '\n'
-    )
+    write_groundtruth(tmp_path / 'seq' / 'groundtruth.txt', boxes)
     assert read_groundtruth(tmp_path / 'seq' / 'groundtruth.txt') == boxes
     init = ','.join(f'{v:g}' for v in boxes[0])
     assert (

@@ -18,7 +18,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-__all__ = ['BASELINES', 'CamShiftTracker', 'make_baseline', 'run_baseline', 'available']
+__all__ = ['BASELINES', 'CamShiftTracker', 'make_baseline', 'run_baseline']
 
 Box = tuple[float, float, float, float]
 BASELINES = ('CamShift', 'MIL', 'KCF', 'CSRT')
@@ -58,15 +58,6 @@ class CamShiftTracker:
         if w <= 0 or h <= 0:
             return False, (0.0, 0.0, 0.0, 0.0)
         return True, (float(x), float(y), float(w), float(h))
-
-
-def available() -> list[str]:
-    """The baselines this OpenCV build provides."""
-    names = ['CamShift']
-    for name in ('MIL', 'KCF', 'CSRT'):
-        if hasattr(cv2, f'Tracker{name}_create') or hasattr(getattr(cv2, 'legacy', None), f'Tracker{name}_create'):
-            names.append(name)
-    return names
 
 
 def make_baseline(name: str) -> object:

@@ -18,6 +18,7 @@ from rosbags.highlevel import AnyReader, AnyReaderError
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
+from human_tracker.io.images import stamp_ns
 from human_tracker.scenes.generator import SceneSpec, render_scene
 from human_tracker.vision.camera import default_camera_matrix
 
@@ -211,11 +212,6 @@ def _deserialize(reader: AnyReader, raw: bytes, msgtype: str, path: Path) -> obj
         raise BagError(f'{path}: a {msgtype} message cannot be decoded ({type(err).__name__}: {err})') from err
 
 
-def _stamp_ns(msg: object) -> int:
-    stamp = msg.header.stamp  # type: ignore[attr-defined]
-    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
-
-
 def read_frames(path: str | Path, *, camera_topic: str | None = None, target: str = 'head') -> Iterator[BagFrame]:
     """Iterate over the camera frames of a bag with their ground truth matched by stamp.
 
@@ -252,10 +248,10 @@ def read_frames(path: str | Path, *, camera_topic: str | None = None, target: st
                 if len(points):
                     lo, hi = points.min(axis=0), points.max(axis=0)
                     box = (float(lo[0]), float(lo[1]), float(hi[0] - lo[0]), float(hi[1] - lo[1]))
-                truth[_stamp_ns(polygon)] = box
+                truth[stamp_ns(polygon.header)] = box
             for index, (conn, _, raw) in enumerate(guarded(reader.messages(connections=[camera]), path)):
                 msg = _deserialize(reader, raw, conn.msgtype, path)
-                stamp = _stamp_ns(msg)
+                stamp = stamp_ns(msg.header)
                 yield BagFrame(index, stamp, msg, truth.get(stamp))
     except (AnyReaderError, OSError) as err:
         raise BagError(f'cannot read bag {path}: {err}') from err

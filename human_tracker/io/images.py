@@ -25,6 +25,7 @@ __all__ = [
     'to_bgr8',
     'to_mono8',
     'message_to_bgr8',
+    'stamp_ns',
 ]
 
 MAX_PIXELS = 8192 * 8192
@@ -182,3 +183,8 @@ def message_to_bgr8(msg: Any) -> np.ndarray:
             return cv2.cvtColor(image, cv2.COLOR_BGRA2BGR)
         return image
     return to_bgr8(image_to_array(msg), str(msg.encoding))
+
+
+def stamp_ns(header: Any) -> int:
+    """A std_msgs/Header's stamp in nanoseconds (rclpy or rosbags message alike)."""
+    return int(header.stamp.sec) * 1_000_000_000 + int(header.stamp.nanosec)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import time
-from typing import Any
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
@@ -12,13 +11,11 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
+from human_tracker.io.images import stamp_ns
+
 __all__ = ['PoseCollector']
 
 _KEEP_ALL = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST)
-
-
-def _stamp_ns(header: Any) -> int:
-    return int(header.stamp.sec) * 1_000_000_000 + int(header.stamp.nanosec)
 
 
 class PoseCollector(Node):
@@ -38,7 +35,7 @@ class PoseCollector(Node):
         self.create_subscription(PolygonStamped, 'contour', self._on_contour, _KEEP_ALL)
 
     def _on_pose(self, msg: PoseWithCovarianceStamped) -> None:
-        self.poses[_stamp_ns(msg.header)] = msg
+        self.poses[stamp_ns(msg.header)] = msg
         self.frame_ids.add(msg.header.frame_id)
 
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
@@ -54,7 +51,7 @@ class PoseCollector(Node):
         return self.diagnostics.get(name, {})
 
     def _on_contour(self, msg: PolygonStamped) -> None:
-        self.contours[_stamp_ns(msg.header)] = np.array([[p.x, p.y] for p in msg.polygon.points], dtype=np.float64)
+        self.contours[stamp_ns(msg.header)] = np.array([[p.x, p.y] for p in msg.polygon.points], dtype=np.float64)
 
     def wait_for_publisher(self, executor: SingleThreadedExecutor, timeout: float) -> bool:
         """Spin until a node publishes ``pose`` (so no early pose is missed)."""

@@ -15,12 +15,11 @@ from typing import Any
 
 import numpy as np
 from geometry_msgs.msg import Vector3Stamped
-from sensor_msgs.msg import CameraInfo, Image
+from sensor_msgs.msg import Image
 
 from human_tracker.ros.common import RESULT_QOS, declare
 from human_tracker.ros.image_conversion import array_to_image, to_mono8
 from human_tracker.ros.stage import ImageStage, ParameterSpec, spin_node, stamp_ns
-from human_tracker.vision.camera import default_camera_matrix
 from human_tracker.vision.optical_flow import FlowParameters, OpticalFlow
 
 __all__ = ['FLOW_PARAMETERS', 'OpticalFlowNode', 'main']
@@ -55,12 +54,11 @@ class OpticalFlowNode(ImageStage):
             low=0.0,
             high=60.0,
         )
-        self.camera_matrix: np.ndarray | None = None
         self.angular_velocity: tuple[int, np.ndarray] | None = None
         self.previous_stamp: int | None = None
         self.motion_pub = self.create_publisher(Image, 'motion', RESULT_QOS)
         self.flow_pub = self.create_publisher(Image, 'flow', RESULT_QOS)
-        self.create_subscription(CameraInfo, 'camera_info', self._on_camera_info, RESULT_QOS)
+        self.use_camera_info()
         self.create_subscription(Vector3Stamped, 'angular_velocity', self._on_angular_velocity, RESULT_QOS)
         self.get_logger().info(f'ready: optical flow ({parameters.method})')
 
@@ -70,11 +68,6 @@ class OpticalFlowNode(ImageStage):
     def reset_state(self) -> None:
         self.flow.reset()
         self.previous_stamp = None
-
-    def _on_camera_info(self, msg: CameraInfo) -> None:
-        k = np.asarray(msg.k, dtype=np.float64).reshape(3, 3)
-        if k[0, 0] > 0 and k[1, 1] > 0:
-            self.camera_matrix = k
 
     def _on_angular_velocity(self, msg: Vector3Stamped) -> None:
         self.angular_velocity = (stamp_ns(msg.header), np.array([msg.vector.x, msg.vector.y, msg.vector.z]))
@@ -88,11 +81,7 @@ class OpticalFlowNode(ImageStage):
         omega = None
         if self.angular_velocity is not None and abs(stamp - self.angular_velocity[0]) <= self.max_rotation_age * 1e9:
             omega = self.angular_velocity[1]
-        k = (
-            self.camera_matrix
-            if self.camera_matrix is not None
-            else default_camera_matrix(gray.shape[1], gray.shape[0])
-        )
+        k = self.intrinsics(gray.shape[1], gray.shape[0])
         flow, mask = self.flow.apply(gray, camera_matrix=k, angular_velocity=omega, dt=max(dt, 0.0))
         self.counters.processed += 1
         self.motion_pub.publish(array_to_image(mask, 'mono8', header))

@@ -13,7 +13,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from types import TracebackType
 
-__all__ = ['FASTDDS_PROFILE', 'ros_environment', 'NodeProcess']
+__all__ = ['FASTDDS_PROFILE', 'ros_environment', 'use_ros_environment', 'NodeProcess']
 
 FASTDDS_PROFILE = Path(__file__).resolve().parents[2] / 'config' / 'fastdds_large_shm.xml'
 
@@ -31,6 +31,14 @@ def ros_environment(domain_id: int, base: dict[str, str] | None = None) -> dict[
     if FASTDDS_PROFILE.exists():
         env.setdefault('FASTRTPS_DEFAULT_PROFILES_FILE', str(FASTDDS_PROFILE))
     env['PYTHONUNBUFFERED'] = '1'
+    return env
+
+
+def use_ros_environment(domain_id: int) -> dict[str, str]:
+    """Put this process on ``domain_id`` as :func:`ros_environment` does (before rclpy.init);
+    return that environment for its child processes."""
+    env = ros_environment(domain_id)
+    os.environ.update({k: v for k, v in env.items() if k.startswith(('ROS_', 'RMW_', 'FASTRTPS_'))})
     return env
 
 

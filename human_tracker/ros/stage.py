@@ -25,8 +25,9 @@ from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from sensor_msgs.msg import CompressedImage, Image
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 
+from human_tracker.io.images import stamp_ns
 from human_tracker.ros.common import (
     RESULT_QOS,
     FrameCounters,
@@ -37,6 +38,7 @@ from human_tracker.ros.common import (
     publish_diagnostics,
 )
 from human_tracker.ros.image_conversion import ImageConversionError, message_to_bgr8
+from human_tracker.vision.camera import default_camera_matrix
 
 __all__ = ['DEFERRED', 'ParameterSpec', 'ImageStage', 'run_nodes', 'spin_node', 'stamp_ns']
 
@@ -47,11 +49,6 @@ DEFERRED = object()
 def _plain(value: Any) -> Any:
     """Array parameters arrive as lists or array.array; the dataclasses hold tuples."""
     return tuple(value) if isinstance(value, (list, tuple, array.array)) else value
-
-
-def stamp_ns(header: Any) -> int:
-    """A header's stamp in nanoseconds."""
-    return int(header.stamp.sec) * 1_000_000_000 + int(header.stamp.nanosec)
 
 
 @dataclass(frozen=True)
@@ -82,6 +79,7 @@ class ImageStage(Node):
         self.timer_stats = StageTimer()
         self.last_stamp_ns = -1
         self.time_resets = 0
+        self.camera_matrix: np.ndarray | None = None
         self._bindings: list[tuple[Sequence[ParameterSpec], Callable[[], Any], Callable[[Any], None]]] = []
         self.diagnostics_pub = self.create_publisher(DiagnosticArray, '/diagnostics', RESULT_QOS)
         period = declare(
@@ -194,6 +192,19 @@ class ImageStage(Node):
         if result is not DEFERRED:
             self.timer_stats.took(time.perf_counter() - start)
         return result
+
+    def use_camera_info(self) -> None:
+        """Subscribe ``camera_info``; :meth:`intrinsics` then returns its K."""
+        self.create_subscription(CameraInfo, 'camera_info', self._on_camera_info, RESULT_QOS)
+
+    def _on_camera_info(self, msg: CameraInfo) -> None:
+        k = np.asarray(msg.k, dtype=np.float64).reshape(3, 3)
+        if k[0, 0] > 0 and k[1, 1] > 0:
+            self.camera_matrix = k
+
+    def intrinsics(self, width: int, height: int) -> np.ndarray:
+        """K from ``camera_info``, or the documented default (60° pinhole) until one arrives."""
+        return self.camera_matrix if self.camera_matrix is not None else default_camera_matrix(width, height)
 
     def guarded(self, work: Callable[..., object], *args: Any, **kwargs: Any) -> object:
         """Run ``work``; an unexpected error is counted as a rejected frame and logged, never raised.

@@ -17,13 +17,13 @@ from typing import Any
 import numpy as np
 from geometry_msgs.msg import Point32, PolygonStamped, PoseWithCovarianceStamped
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
-from sensor_msgs.msg import CameraInfo, Image
+from sensor_msgs.msg import Image
 
 from human_tracker.drawing import annotate
 from human_tracker.ros.common import RESULT_QOS, declare
 from human_tracker.ros.image_conversion import ImageConversionError, array_to_image, image_to_array, to_mono8
 from human_tracker.ros.stage import DEFERRED, ImageStage, ParameterSpec, spin_node, stamp_ns
-from human_tracker.vision.camera import default_camera_matrix, metric_positions
+from human_tracker.vision.camera import metric_positions
 from human_tracker.vision.target import TargetParameters, TargetResult, TargetTracker
 from human_tracker.vision.templates import make_template
 from human_tracker.vision.tracker import TrackerParameters
@@ -159,7 +159,6 @@ class TrackerNode(ImageStage):
             read_only=True,
         )
 
-        self.camera_matrix: np.ndarray | None = None
         self.last_tracked_ns = -1
         self.last_result: TargetResult | None = None
         self.unmatched = 0
@@ -169,7 +168,7 @@ class TrackerNode(ImageStage):
         self.pose_pub = self.create_publisher(PoseWithCovarianceStamped, 'pose', RESULT_QOS)
         self.contour_pub = self.create_publisher(PolygonStamped, 'contour', RESULT_QOS)
         self.debug_pub = self.create_publisher(Image, 'debug_image', RESULT_QOS)
-        self.create_subscription(CameraInfo, 'camera_info', self._on_camera_info, RESULT_QOS)
+        self.use_camera_info()
         if not subscribe_image:
             self.motion_input = 'none'  # a pipeline hands the masks over with the frames
         if self.motion_input != 'none':
@@ -204,11 +203,6 @@ class TrackerNode(ImageStage):
         self.pending.clear()
         self.masks.clear()
         self.last_tracked_ns = -1
-
-    def _on_camera_info(self, msg: CameraInfo) -> None:
-        k = np.asarray(msg.k, dtype=np.float64).reshape(3, 3)
-        if k[0, 0] > 0 and k[1, 1] > 0:
-            self.camera_matrix = k
 
     def _on_mask(self, msg: Image) -> None:
         try:
@@ -296,7 +290,7 @@ class TrackerNode(ImageStage):
     def _publish(self, result: TargetResult, header: Any, shape: tuple[int, ...]) -> None:
         estimate = result.estimate
         assert estimate is not None and self.tracker.filter.particles is not None
-        k = self.camera_matrix if self.camera_matrix is not None else default_camera_matrix(shape[1], shape[0])
+        k = self.intrinsics(shape[1], shape[0])
         position = metric_positions(estimate.state, self.template, k, self.target_width)
         cloud = metric_positions(self.tracker.filter.particles, self.template, k, self.target_width)
         pose = PoseWithCovarianceStamped()

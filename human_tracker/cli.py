@@ -54,6 +54,8 @@ def _track(options: argparse.Namespace) -> int:
         target=options.target,
         init=options.init,
         cue=options.cue,
+        skin=options.skin,
+        template_file=options.template or '',
         filter_parameters=TrackerParameters(num_particles=options.particles, seed=options.seed),
         video=not options.no_video,
         progress=not options.quiet,
@@ -107,6 +109,22 @@ def _import(options: argparse.Namespace) -> int:
     return 0
 
 
+def _train_skin(options: argparse.Namespace) -> int:
+    from human_tracker.io.skin_samples import read_skin_samples
+    from human_tracker.vision.skin import train_skin_model
+
+    colours, is_skin = read_skin_samples(options.samples)
+    model = train_skin_model(
+        colours, is_skin, num_classes=options.classes, skin_coverage=options.coverage, seed=options.seed
+    )
+    model.notes['source'] = Path(options.samples).name
+    options.out.parent.mkdir(parents=True, exist_ok=True)
+    options.out.write_text(model.to_json() + '\n')
+    print(json.dumps(model.notes, indent=2))
+    print(f'human_tracker train-skin: wrote {options.out} ({len(model.classes)} classes)')
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``human_tracker``; returns the exit code."""
     parser = argparse.ArgumentParser(
@@ -127,7 +145,7 @@ def main(argv: list[str] | None = None) -> int:
     track.add_argument(
         'input', help='bag (folder, .mcap, .db3), video file, or folder of frames (optional groundtruth.txt)'
     )
-    track.add_argument('--target', choices=('head',), default='head')
+    track.add_argument('--target', choices=('head', 'hand'), default='head')
     track.add_argument(
         '--init', type=_box, metavar='X,Y,W,H', help='box of the target in the first frame (default: start from motion)'
     )
@@ -135,6 +153,12 @@ def main(argv: list[str] | None = None) -> int:
     track.add_argument(
         '--cue', choices=('background', 'flow', 'none'), default='background', help='motion cue (default background)'
     )
+    track.add_argument(
+        '--skin',
+        action=argparse.BooleanOptionalAction,
+        help='segment skin and use it in the likelihood (default: on for --target hand)',
+    )
+    track.add_argument('--template', help='JSON template file replacing the built-in one')
     track.add_argument('--particles', type=int, default=500)
     track.add_argument('--seed', type=int, default=0)
     track.add_argument('--no-video', action='store_true', help='skip the annotated video')
@@ -153,6 +177,16 @@ def main(argv: list[str] | None = None) -> int:
     importer.add_argument('--target', default='head', help='ground-truth topic /ground_truth/<target>')
     importer.add_argument('--storage', choices=('mcap', 'sqlite3'), default='mcap')
     importer.set_defaults(run=_import)
+
+    trainer = commands.add_parser('train-skin', help='learn the skin classes of §3.2 from labelled colour samples')
+    trainer.add_argument('samples', help='text file of "B G R class" lines, class 1 skin / 2 non-skin (UCI format)')
+    trainer.add_argument('--out', type=Path, default=Path('human_tracker/data/skin_model.json'))
+    trainer.add_argument('--classes', type=int, default=4, help='number of skin classes (default 4)')
+    trainer.add_argument(
+        '--coverage', type=float, default=0.95, help='fraction of skin samples the classes cover (default 0.95)'
+    )
+    trainer.add_argument('--seed', type=int, default=0)
+    trainer.set_defaults(run=_train_skin)
 
     options = parser.parse_args(argv)
     try:

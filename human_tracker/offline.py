@@ -2,7 +2,8 @@
 ``human_tracker track`` command.
 
 The same core as the nodes runs on every frame: the motion cue (background subtraction,
-optical flow or none) and the :class:`~human_tracker.vision.target.TargetTracker`. Without
+optical flow or none), skin labels (§3.2, colour input only) and the
+:class:`~human_tracker.vision.target.TargetTracker`. Without
 an initial box the tracker starts by itself from motion (§2.5); with one, from that box in
 the first frame (the protocol of tracking benchmarks).
 """
@@ -25,7 +26,8 @@ from human_tracker.io.images import to_mono8
 from human_tracker.io.sequences import open_sequence
 from human_tracker.vision.background import BackgroundModel
 from human_tracker.vision.optical_flow import OpticalFlow
-from human_tracker.vision.target import TargetParameters, TargetTracker
+from human_tracker.vision.skin import SkinSegmenter, default_skin_model
+from human_tracker.vision.target import TargetParameters, TargetTracker, parameters_for
 from human_tracker.vision.templates import make_template
 from human_tracker.vision.tracker import TrackerParameters
 
@@ -53,10 +55,12 @@ class TrackOptions:
     """What to track and how.
 
     Attributes:
-        target: Built-in template name (``head``).
+        target: Built-in template name (``head`` or ``hand``).
         init: First-frame box (x, y, w, h) of the target's reference region, or None to start
             from motion.
         cue: Motion cue: ``background``, ``flow`` or ``none``.
+        skin: Whether to segment skin and use it (§3.2); None: for the hand only.
+        template_file: JSON template replacing the built-in one (empty: built-in).
         filter_parameters: Particle-filter constants.
         target_parameters: Cue combination, initialisation and loss constants.
         video: Whether to write the annotated video.
@@ -66,8 +70,10 @@ class TrackOptions:
     target: str = 'head'
     init: Box | None = None
     cue: str = 'background'
+    skin: bool | None = None
+    template_file: str = ''
     filter_parameters: TrackerParameters = field(default_factory=TrackerParameters)
-    target_parameters: TargetParameters = field(default_factory=TargetParameters)
+    target_parameters: TargetParameters | None = None
     video: bool = True
     progress: bool = True
 
@@ -87,9 +93,13 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     sequence = open_sequence(source)
-    template = make_template(options.target)
-    tracker = TargetTracker(template, options.filter_parameters, options.target_parameters)
+    template = make_template(options.target, template_file=options.template_file)
+    target_parameters = options.target_parameters or parameters_for(options.target)
+    tracker = TargetTracker(template, options.filter_parameters, target_parameters)
     background, flow = BackgroundModel(), OpticalFlow()
+    use_skin = options.target == 'hand' if options.skin is None else options.skin
+    segmenter = SkinSegmenter(default_skin_model()) if use_skin else None
+    grey_frames = 0
     predicted: list[Box | None] = []
     truth: list[Box | None] = []
     writer = None
@@ -115,9 +125,14 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
                 if options.cue == 'flow'
                 else None
             )
+            skin = None
+            if segmenter is not None and frame.image.ndim == 3:
+                skin = segmenter.segment(frame.image)
+            elif segmenter is not None:
+                grey_frames += 1
             if frame.index == 0 and options.init is not None:
                 tracker.initialise_from_box(options.init)
-            result = tracker.process(gray, motion)
+            result = tracker.process(frame.image if frame.image.ndim == 3 else gray, motion, skin)
             elapsed += time.perf_counter() - start
             estimate = result.estimate
             box = estimate.box if result.tracking else None
@@ -152,6 +167,8 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
         'source': str(source),
         'target': options.target,
         'cue': options.cue,
+        'skin': use_skin,
+        'frames_without_colour': grey_frames,
         'init': list(options.init) if options.init is not None else 'motion',
         'frames': len(predicted),
         'frames_processed': len(predicted) - sum(rejected.values()),

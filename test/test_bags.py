@@ -18,7 +18,7 @@ def test_generator_is_deterministic_and_moves_the_person() -> None:
     again = list(render_scene(SMALL))
     for a, b in zip(first, again, strict=True):
         np.testing.assert_array_equal(a.image, b.image)
-    assert first[0].head_box != first[-1].head_box
+    assert first[0].box != first[-1].box
     other = list(render_scene(dataclasses.replace(SMALL, seed=99)))
     assert not np.array_equal(first[0].image, other[0].image)
 
@@ -30,7 +30,7 @@ def test_bag_round_trip(tmp_path, storage: str, compressed: bool) -> None:
     frames = list(read_frames(path))
     truth = list(render_scene(SMALL))
     assert [f.stamp_ns for f in frames] == [t.stamp_ns for t in truth]
-    assert [f.ground_truth for f in frames] == [t.head_box for t in truth]
+    assert [f.ground_truth for f in frames] == [t.box for t in truth]
     assert hasattr(frames[0].message, 'format') == compressed
 
 

@@ -184,7 +184,8 @@ def write_bag(
 
 def write_scene_bag(spec: SceneSpec, path: str | Path, **options: object) -> Path:
     """Render ``spec`` and record it with :func:`write_bag` (same options)."""
-    return write_bag(path, ((f.stamp_ns, f.image, f.head_box) for f in render_scene(spec)), **options)  # type: ignore[arg-type]
+    frames = ((f.stamp_ns, f.image, f.box) for f in render_scene(spec))
+    return write_bag(path, frames, target=spec.target, **options)  # type: ignore[arg-type]
 
 
 @dataclass
@@ -212,13 +213,13 @@ def _deserialize(reader: AnyReader, raw: bytes, msgtype: str, path: Path) -> obj
         raise BagError(f'{path}: a {msgtype} message cannot be decoded ({type(err).__name__}: {err})') from err
 
 
-def read_frames(path: str | Path, *, camera_topic: str | None = None, target: str = 'head') -> Iterator[BagFrame]:
+def read_frames(path: str | Path, *, camera_topic: str | None = None, target: str | None = None) -> Iterator[BagFrame]:
     """Iterate over the camera frames of a bag with their ground truth matched by stamp.
 
     Args:
         path: Bag folder, or a single ``.mcap`` / ``.db3`` file.
         camera_topic: Topic to read; by default the first Image or CompressedImage topic.
-        target: Which ``/ground_truth/<target>`` topic to match.
+        target: Which ``/ground_truth/<target>`` topic to match; by default the first one.
 
     Raises:
         BagError: The bag is missing, unreadable, or has no such camera topic.
@@ -239,7 +240,12 @@ def read_frames(path: str | Path, *, camera_topic: str | None = None, target: st
                     f'{path}: no camera topic {camera_topic or "(Image or CompressedImage)"}; topics: {found}'
                 )
             camera = cameras[0]
-            truth_connections = [c for c in reader.connections if c.topic == ground_truth_topic(target)]
+            truth_connections = [
+                c
+                for c in reader.connections
+                if c.topic == ground_truth_topic(target)
+                or (target is None and c.topic.startswith(ground_truth_topic('')))
+            ][:1]
             truth: dict[int, tuple[float, float, float, float] | None] = {}
             for conn, _, raw in guarded(reader.messages(connections=truth_connections), path):
                 polygon = _deserialize(reader, raw, conn.msgtype, path)

@@ -1,9 +1,10 @@
 """Seeded synthetic camera scenes with ground truth, for tests, demos and benchmarks.
 
-A scene is a static camera looking at a textured, cluttered room in which a person's head
-and shoulders move (translation, scale change, rotation). The person is drawn from
-primitives (an ellipse for the head, a polygon for neck and shoulders), not from the
-tracker's template, so the template only approximates the silhouette, as on real video.
+A scene is a static camera looking at a textured, cluttered room. In a head scene a
+person's head and shoulders move (translation, scale change, rotation); in a hand scene the
+person stands by and waves an open hand in front of the room, the face in view. People and
+hands are drawn from primitives (ellipses, polygons, thick lines for the fingers), not from
+the tracker's templates, so a template only approximates the silhouette, as on real video.
 Everything random comes from one seeded generator: the same spec gives the same frames.
 """
 
@@ -44,14 +45,17 @@ class SceneSpec:
 
     Attributes:
         name: Scene name (the bag is named after it).
+        target: What moves and is ground truth: ``head`` or ``hand``.
         width: Image width, pixels.
         height: Image height, pixels.
         num_frames: Number of frames.
         fps: Frame rate, Hz (sets the stamps).
         seed: Seed of every random draw of the scene.
-        head_width: Mean head width, pixels (the tracker's scale s).
+        head_width: Mean head width, pixels (the head tracker's scale s).
+        hand_width: Mean hand width (thumb to little finger), pixels (the hand tracker's s).
         clutter: Number of random shapes drawn on the background.
         head_like_clutter: Number of static head-and-shoulders-like outlines in the background.
+        skin_like_clutter: Number of background shapes in skin-like colours (wood, cardboard).
         noise_sigma: Standard deviation of the additive camera noise, grey levels.
         lighting_drift: Peak relative change of the global illumination over the scene.
         amplitude: Horizontal and vertical amplitude of the motion, as fractions of the size.
@@ -62,14 +66,17 @@ class SceneSpec:
     """
 
     name: str
+    target: str = 'head'
     width: int = 640
     height: int = 480
     num_frames: int = 150
     fps: float = 30.0
     seed: int = 1
     head_width: float = 70.0
+    hand_width: float = 90.0
     clutter: int = 40
     head_like_clutter: int = 0
+    skin_like_clutter: int = 0
     noise_sigma: float = 3.0
     lighting_drift: float = 0.0
     amplitude: tuple[float, float] = (0.28, 0.06)
@@ -88,8 +95,9 @@ class SceneFrame:
         stamp_ns: Time stamp, nanoseconds.
         image: ``(H, W, 3) uint8`` BGR image.
         visible: Whether the person is in view.
-        state: ``(4,)`` true [x, y, s, θ] of the head (centre pixels, width pixels, radians).
-        head_box: ``(x, y, w, h)`` pixels, axis-aligned box of the head, or None when absent.
+        state: ``(4,)`` true [x, y, s, θ] of the target (centre pixels, width pixels, radians).
+        box: ``(x, y, w, h)`` pixels, axis-aligned box of the head or hand, None when absent.
+        skin: ``(H, W) bool``, True on the pixels of the face and the hand (their true skin).
     """
 
     index: int
@@ -97,7 +105,8 @@ class SceneFrame:
     image: np.ndarray
     visible: bool
     state: np.ndarray
-    head_box: tuple[float, float, float, float] | None = field(default=None)
+    box: tuple[float, float, float, float] | None = field(default=None)
+    skin: np.ndarray | None = field(default=None, repr=False)
 
 
 # Scenes first recorded at this time, so stamps are realistic and identical run to run.
@@ -147,7 +156,22 @@ def _background(spec: SceneSpec, rng: np.random.Generator) -> np.ndarray:
             ]
         )
         _draw_person(image, decoy, rng.uniform(60, 200, size=3), _clothes(rng), 1.0)
+    # Wood, cardboard, terracotta: colours the skin classes accept, shaped unlike a hand.
+    for _ in range(spec.skin_like_clutter):
+        colour = tuple(float(c) for c in _skin_tone(rng) * rng.uniform(0.8, 1.1))
+        x, y = int(rng.integers(0, w)), int(rng.integers(0, h))
+        if rng.random() < 0.5:
+            corner = (x + int(rng.integers(30, 120)), y + int(rng.integers(20, 90)))
+            cv2.rectangle(image, (x, y), corner, colour, -1, cv2.LINE_AA)
+        else:
+            axes = (int(rng.integers(15, 60)), int(rng.integers(10, 40)))
+            cv2.ellipse(image, (x, y), axes, float(rng.uniform(0, 180)), 0, 360, colour, -1, cv2.LINE_AA)
     return image
+
+
+def _skin_tone(rng: np.random.Generator) -> np.ndarray:
+    """A skin colour, B, G, R."""
+    return np.array([95.0, 135.0, 200.0]) + rng.uniform(-15, 15, size=3)
 
 
 def _head_polygon(state: np.ndarray) -> np.ndarray:
@@ -169,42 +193,103 @@ def _draw_person(
     skin: np.ndarray,
     shirt: np.ndarray,
     gain: float,
+    skin_mask: np.ndarray | None = None,
 ) -> None:
-    """Draw neck and shoulders, then the head with hair and face features, at ``state``."""
+    """Draw neck and shoulders, then the head with hair and face features, at ``state``.
+
+    ``skin_mask``, when given, receives the face's skin pixels (255), hair and features excluded.
+    """
     s = state[2]
     body = np.round(_to_image(_BODY, state)).astype(np.int32)
     cv2.fillPoly(image, [body], tuple(float(c) * gain for c in shirt), cv2.LINE_AA)
-    head = _head_polygon(state)
-    cv2.fillPoly(image, [head], tuple(float(c) * gain for c in skin), cv2.LINE_AA)
+    targets = [(image, tuple(float(c) * gain for c in skin), cv2.LINE_AA)]
+    if skin_mask is not None:
+        cv2.fillPoly(skin_mask, [body], 0)
+        targets.append((skin_mask, 255, cv2.LINE_8))
     hair_colour = (30 * gain, 35 * gain, 45 * gain)
-    x, y, _, theta = state
-    cv2.ellipse(
-        image,
-        (int(round(x)), int(round(y))),
-        (int(round(_HEAD_HALF_WIDTH * s)), int(round(_HEAD_HALF_HEIGHT * s))),
-        float(np.degrees(theta)),
-        195,
-        345,
-        hair_colour,
-        -1,
-        cv2.LINE_AA,
-    )
-    features = _to_image(np.array([[-0.18, -0.05], [0.18, -0.05], [0.0, 0.3]]), state)
     dark = (40 * gain, 40 * gain, 60 * gain)
-    for fx, fy in features[:2]:
-        cv2.circle(image, (int(round(fx)), int(round(fy))), max(1, int(s * 0.05)), dark, -1, cv2.LINE_AA)
+    x, y, _, theta = state
+    features = _to_image(np.array([[-0.18, -0.05], [0.18, -0.05], [0.0, 0.3]]), state)
     mx, my = features[2]
-    cv2.ellipse(
-        image,
-        (int(round(mx)), int(round(my))),
-        (max(1, int(s * 0.14)), max(1, int(s * 0.04))),
-        float(np.degrees(theta)),
-        0,
-        360,
-        dark,
-        -1,
-        cv2.LINE_AA,
-    )
+    for canvas, skin_colour, line in targets:
+        hair, feature = (hair_colour, dark) if canvas is image else (0, 0)
+        cv2.fillPoly(canvas, [_head_polygon(state)], skin_colour, line)
+        cv2.ellipse(
+            canvas,
+            (int(round(x)), int(round(y))),
+            (int(round(_HEAD_HALF_WIDTH * s)), int(round(_HEAD_HALF_HEIGHT * s))),
+            float(np.degrees(theta)),
+            195,
+            345,
+            hair,
+            -1,
+            line,
+        )
+        for fx, fy in features[:2]:
+            cv2.circle(canvas, (int(round(fx)), int(round(fy))), max(1, int(s * 0.05)), feature, -1, line)
+        cv2.ellipse(
+            canvas,
+            (int(round(mx)), int(round(my))),
+            (max(1, int(s * 0.14)), max(1, int(s * 0.04))),
+            float(np.degrees(theta)),
+            0,
+            360,
+            feature,
+            -1,
+            line,
+        )
+
+
+# An open hand one unit wide in the hand template's frame (x right, y down, hand centred
+# on the origin): palm, forearm, and (base, tip, width) of the thumb and the four fingers.
+_PALM = ((0.07, 0.22), (0.37, 0.38))
+_FOREARM = np.array([[-0.16, 0.45], [0.40, 0.45], [0.32, 1.25], [-0.10, 1.25]])
+_SLEEVE = np.array([[-0.16, 1.05], [0.36, 1.05], [0.45, 6.0], [-0.25, 6.0]])
+_FINGERS = (
+    ((-0.22, 0.28), (-0.42, -0.02), 0.14),
+    ((-0.08, -0.02), (-0.12, -0.46), 0.13),
+    ((0.09, -0.05), (0.11, -0.55), 0.13),
+    ((0.26, -0.02), (0.28, -0.46), 0.12),
+    ((0.39, 0.10), (0.44, -0.27), 0.11),
+)
+
+
+def _hand_outline_points() -> np.ndarray:
+    """Points on the hand's outline above the wrist, hand frame: its ground-truth box is theirs."""
+    angles = np.linspace(0.0, 2.0 * np.pi, 72, endpoint=False)
+    palm = np.stack([_PALM[0][0] + _PALM[1][0] * np.cos(angles), _PALM[0][1] + _PALM[1][1] * np.sin(angles)], 1)
+    points = [palm]
+    for base, tip, width in _FINGERS:
+        base, tip = np.asarray(base), np.asarray(tip)
+        along = (tip - base) / np.linalg.norm(tip - base)
+        across = np.array([-along[1], along[0]]) * width / 2
+        points.append(np.array([base + across, base - across, tip + across, tip - across, tip + along * width / 2]))
+    return np.vstack(points)
+
+
+_HAND_OUTLINE = _hand_outline_points()
+
+
+def _draw_hand(
+    image: np.ndarray, state: np.ndarray, skin: np.ndarray, sleeve: np.ndarray, gain: float, skin_mask: np.ndarray
+) -> None:
+    """Draw an open hand on its forearm at ``state``; its skin pixels go to ``skin_mask``."""
+    s = state[2]
+    theta = float(np.degrees(state[3]))
+    palm_centre = tuple(int(round(v)) for v in _to_image(np.array([_PALM[0]]), state)[0])
+    palm_axes = (max(1, int(round(_PALM[1][0] * s))), max(1, int(round(_PALM[1][1] * s))))
+    forearm = np.round(_to_image(_FOREARM, state)).astype(np.int32)
+    sleeve_polygon = np.round(_to_image(_SLEEVE, state)).astype(np.int32)
+    for canvas, colour, line in ((image, tuple(skin * gain), cv2.LINE_AA), (skin_mask, 255, cv2.LINE_8)):
+        cv2.fillPoly(canvas, [forearm], colour, line)
+        cv2.ellipse(canvas, palm_centre, palm_axes, theta, 0, 360, colour, -1, line)
+        for base, tip, width in _FINGERS:
+            ends = np.round(_to_image(np.array([base, tip]), state)).astype(np.int32)
+            thickness = max(1, int(round(width * s)))
+            cv2.line(canvas, tuple(ends[0]), tuple(ends[1]), colour, thickness, line)
+            cv2.circle(canvas, tuple(ends[1]), thickness // 2, colour, -1, line)
+    cv2.fillPoly(image, [sleeve_polygon], tuple(sleeve * gain), cv2.LINE_AA)
+    cv2.fillPoly(skin_mask, [sleeve_polygon], 0)
 
 
 def _trajectory(spec: SceneSpec, motion_time: float) -> np.ndarray:
@@ -217,35 +302,62 @@ def _trajectory(spec: SceneSpec, motion_time: float) -> np.ndarray:
     return np.array([cx, cy, s, theta])
 
 
-def _head_box(state: np.ndarray) -> tuple[float, float, float, float]:
-    poly = _head_polygon(state)
-    x0, y0 = poly.min(axis=0)
-    x1, y1 = poly.max(axis=0)
+def _hand_trajectory(spec: SceneSpec, motion_time: float) -> np.ndarray:
+    """True hand state after ``motion_time`` seconds of waving (time stops during pauses)."""
+    t = motion_time
+    cx = spec.width * (0.6 + spec.amplitude[0] * np.sin(2 * np.pi * t / 2.0))
+    cy = spec.height * (0.42 + spec.amplitude[1] * np.sin(2 * np.pi * t / 1.3 + 0.7))
+    s = spec.hand_width * (1.0 + spec.scale_change * np.sin(2 * np.pi * t / 3.1 + 1.3))
+    # The hand turns about the wrist as it waves: most tilted at the ends of the swing.
+    theta = spec.max_rotation * np.sin(2 * np.pi * t / 2.0)
+    return np.array([cx, cy, s, theta])
+
+
+def _box(points: np.ndarray) -> tuple[float, float, float, float]:
+    x0, y0 = points.min(axis=0)
+    x1, y1 = points.max(axis=0)
     return float(x0), float(y0), float(x1 - x0), float(y1 - y0)
 
 
 def render_scene(spec: SceneSpec) -> Iterator[SceneFrame]:
     """Render the frames of ``spec`` in order; deterministic for a given spec."""
+    if spec.target not in ('head', 'hand'):
+        raise ValueError(f'scene target must be head or hand, got {spec.target!r}')
     rng = np.random.default_rng(spec.seed)
     background = _background(spec, rng)
-    skin = np.array([95.0, 135.0, 200.0]) + rng.uniform(-15, 15, size=3)
+    skin = _skin_tone(rng)
     shirt = _clothes(rng)
+    hand_scene = spec.target == 'hand'
+    sleeve = _clothes(rng) if hand_scene else shirt
     noise_rng = np.random.default_rng(spec.seed + 1)
     motion_time = 0.0
     for index in range(spec.num_frames):
         if index > 0 and not _in_ranges(index, spec.pauses):
             motion_time += 1.0 / spec.fps
-        state = _trajectory(spec, motion_time)
         visible = not _in_ranges(index, spec.absent)
         # Lighting drifts on the whole scene, person included, as a slow gain change.
         gain = 1.0 + spec.lighting_drift * np.sin(2 * np.pi * index / max(spec.num_frames, 1))
         frame = np.clip(background.astype(np.float32) * gain, 0, 255).astype(np.uint8)
-        if visible:
-            _draw_person(frame, state, skin, shirt, gain)
+        skin_mask = np.zeros(frame.shape[:2], dtype=np.uint8)
+        if hand_scene:
+            # The person stands to the side, swaying a little, and waves in front of the room.
+            person = np.array(
+                [spec.width * (0.22 + 0.01 * np.sin(motion_time)), spec.height * 0.3, spec.head_width, 0.0]
+            )
+            _draw_person(frame, person, skin, shirt, gain, skin_mask)
+            state = _hand_trajectory(spec, motion_time)
+            if visible:
+                _draw_hand(frame, state, skin, sleeve, gain, skin_mask)
+            box = _box(_to_image(_HAND_OUTLINE, state)) if visible else None
+        else:
+            state = _trajectory(spec, motion_time)
+            if visible:
+                _draw_person(frame, state, skin, shirt, gain, skin_mask)
+            box = _box(_head_polygon(state)) if visible else None
         noisy = frame.astype(np.float32) + noise_rng.normal(0, spec.noise_sigma, size=frame.shape)
         image = np.clip(noisy, 0, 255).astype(np.uint8)
         stamp_ns = _EPOCH_NS + int(round(index * 1e9 / spec.fps))
-        yield SceneFrame(index, stamp_ns, image, visible, state, _head_box(state) if visible else None)
+        yield SceneFrame(index, stamp_ns, image, visible, state, box, skin_mask > 0)
 
 
 SCENES: dict[str, SceneSpec] = {
@@ -277,6 +389,34 @@ SCENES: dict[str, SceneSpec] = {
         ),
         # The person leaves the view for frames 45-75 and comes back.
         SceneSpec(name='head_leave_return', seed=4, num_frames=120, clutter=40, noise_sigma=2.0, absent=((45, 75),)),
+        # A hand waving in front of a room with skin-coloured furniture, the face in view.
+        SceneSpec(
+            name='hand_wave',
+            target='hand',
+            seed=5,
+            num_frames=120,
+            clutter=40,
+            skin_like_clutter=8,
+            noise_sigma=2.0,
+            amplitude=(0.16, 0.05),
+            scale_change=0.1,
+            max_rotation=0.3,
+        ),
+        # More skin-coloured clutter, a lighting drift, and the hand holds still (frames 60-85).
+        SceneSpec(
+            name='hand_cluttered',
+            target='hand',
+            seed=6,
+            num_frames=120,
+            clutter=30,
+            skin_like_clutter=16,
+            noise_sigma=2.0,
+            lighting_drift=0.1,
+            amplitude=(0.16, 0.05),
+            scale_change=0.1,
+            max_rotation=0.3,
+            pauses=((60, 85),),
+        ),
     )
 }
 """The scenes whose bags ship in ``bags/``, by name."""

@@ -19,35 +19,35 @@ import numpy as np
 
 from human_tracker.vision.templates import ContourTemplate
 
-__all__ = ['largest_blob', 'state_from_moments', 'state_from_scan', 'first_local_maximum']
+__all__ = ['blobs', 'first_local_maximum', 'largest_blob', 'moments_state', 'state_from_moments', 'state_from_scan']
+
+
+def blobs(mask: np.ndarray, min_area: int = 1, limit: int = 1) -> list[np.ndarray]:
+    """The ``limit`` largest 8-connected regions of ``min_area`` pixels or more, largest first.
+
+    Returns:
+        Boolean images, one per region (empty when there is none).
+    """
+    count, labels, stats, _ = cv2.connectedComponentsWithStats((mask > 0).astype(np.uint8), connectivity=8)
+    areas = stats[1:, cv2.CC_STAT_AREA]
+    order = [int(i) for i in np.argsort(-areas, kind='stable')[:limit] if areas[i] >= min_area]
+    return [labels == i + 1 for i in order]
 
 
 def largest_blob(mask: np.ndarray, min_area: int = 1) -> np.ndarray | None:
     """The largest 8-connected region of a binary mask as a boolean image, or None if none."""
-    count, labels, stats, _ = cv2.connectedComponentsWithStats((mask > 0).astype(np.uint8), connectivity=8)
-    if count <= 1:
-        return None
-    areas = stats[1:, cv2.CC_STAT_AREA]
-    best = int(np.argmax(areas))
-    if areas[best] < min_area:
-        return None
-    return labels == best + 1
+    found = blobs(mask, min_area)
+    return found[0] if found else None
 
 
-def state_from_moments(mask: np.ndarray, template: ContourTemplate, min_area: int = 50) -> np.ndarray | None:
-    """X_0 = [x, y, s, θ] from the inertial moments of the largest blob (§2.5.1).
+def moments_state(blob: np.ndarray, template: ContourTemplate) -> np.ndarray:
+    """X_0 = [x, y, s, θ] from the inertial moments of one blob (§2.5.1).
 
     The blob is taken as the template's reference region (a hand, or a head alone): its
     centroid is the region's centre, θ the angle of its major axis from the image vertical,
     and its width ``4 sqrt(λ_minor)`` (the full width of a uniform ellipse) over the region's
     width in template units gives s.
-
-    Returns:
-        The state, or None when no blob of ``min_area`` pixels exists.
     """
-    blob = largest_blob(mask, min_area)
-    if blob is None:
-        return None
     ys, xs = np.nonzero(blob)
     cx, cy = xs.mean(), ys.mean()
     covariance = np.cov(np.stack([xs, ys]).astype(np.float64))
@@ -64,6 +64,12 @@ def state_from_moments(mask: np.ndarray, template: ContourTemplate, min_area: in
     c, s = np.cos(theta), np.sin(theta)
     offset = np.array([c * centre[0] - s * centre[1], s * centre[0] + c * centre[1]])
     return np.array([cx - offset[0], cy - offset[1], scale, theta])
+
+
+def state_from_moments(mask: np.ndarray, template: ContourTemplate, min_area: int = 50) -> np.ndarray | None:
+    """X_0 from the moments of the largest blob of ``mask`` (§2.5.1), None without a blob of ``min_area`` pixels."""
+    blob = largest_blob(mask, min_area)
+    return None if blob is None else moments_state(blob, template)
 
 
 def first_local_maximum(values: np.ndarray) -> int | None:

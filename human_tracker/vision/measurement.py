@@ -8,7 +8,17 @@ and ``d(j) = |x(j) - z(j)|``. Then
 - eq. 3 (with motion):  φ(j) = d(j)² + ρ γ(z(j))  if d(j) < δ, else 2ρ,
   with eq. 4: γ(z) = 0 where the motion mask is set at z, 1 elsewhere;
 
-and eq. 1 weighs the particle by ``p(z | x) ∝ exp(-K Σ_j φ(j))``, K = ``likelihood_gain``.
+and, with skin labels l (1 skin, 0 not; §3.2), the colour term
+
+- γ_colour(j) = (1/w) mean_interior (1 - l) + mean_exterior l,
+
+sampled along the normal through x(j) on the interior and exterior side of the contour,
+with w = ``interior_weight`` > 1 (a hole in the skin labels inside costs less than skin
+outside). The paper sums over the pixels of the interior and the exterior; sampling them
+on the normals keeps the cost linear in the number of points, and the means make it
+independent of how many samples there are. The tracker adds ρ γ_colour(j) to φ(j).
+
+Eq. 1 weighs the particle by ``p(z | x) ∝ exp(-K Σ_j φ(j))``, K = ``likelihood_gain``.
 
 One refinement over the paper: an edge pixel counts as ``z(j)`` only if its orientation is
 within ``orientation_tolerance`` of the contour's tangent at ``x(j)``. A contour's own
@@ -25,7 +35,7 @@ import cv2
 import numba
 import numpy as np
 
-__all__ = ['ContourFit', 'edge_map', 'contour_costs', 'log_likelihood', 'normalised_weights']
+__all__ = ['ContourFit', 'colour_costs', 'contour_costs', 'edge_map', 'log_likelihood', 'normalised_weights']
 
 
 class ContourFit(NamedTuple):
@@ -43,7 +53,7 @@ class ContourFit(NamedTuple):
 
 
 def edge_map(
-    gray: np.ndarray,
+    image: np.ndarray,
     *,
     blur_sigma: float = 1.5,
     low_threshold: float = 40.0,
@@ -52,7 +62,9 @@ def edge_map(
     """Binary edge image the contour is fitted to (Canny on a Gaussian-smoothed image).
 
     Args:
-        gray: ``(H, W) uint8`` intensity image.
+        image: ``(H, W) uint8`` intensity image, or ``(H, W, 3) uint8`` colour image: then
+            each pixel takes the gradient of the channel where it is strongest, so an edge
+            between two colours of equal brightness (a hand before a wooden door) counts.
         blur_sigma: Standard deviation of the Gaussian pre-filter, pixels (0: none).
         low_threshold: Canny hysteresis low threshold, gradient units.
         high_threshold: Canny hysteresis high threshold, gradient units.
@@ -63,13 +75,17 @@ def edge_map(
         with the contour normal.
     """
     if blur_sigma > 0:
-        gray = cv2.GaussianBlur(gray, (0, 0), blur_sigma)
+        image = cv2.GaussianBlur(image, (0, 0), blur_sigma)
     # One 3x3 Sobel pass serves Canny (which would compute the same derivatives itself) and
     # the orientation, computed only where there is an edge.
-    dx = cv2.Sobel(gray, cv2.CV_16S, 1, 0, ksize=3)
-    dy = cv2.Sobel(gray, cv2.CV_16S, 0, 1, ksize=3)
-    edges = cv2.Canny(dx, dy, low_threshold, high_threshold) > 0
-    out = np.zeros(gray.shape, dtype=np.uint8)
+    dx = cv2.Sobel(image, cv2.CV_16S, 1, 0, ksize=3)
+    dy = cv2.Sobel(image, cv2.CV_16S, 0, 1, ksize=3)
+    if image.ndim == 3:
+        strongest = np.argmax(np.abs(dx.astype(np.int32)) + np.abs(dy), axis=2)[..., None]
+        dx = np.take_along_axis(dx, strongest, axis=2)[..., 0]
+        dy = np.take_along_axis(dy, strongest, axis=2)[..., 0]
+    edges = cv2.Canny(np.ascontiguousarray(dx), np.ascontiguousarray(dy), low_threshold, high_threshold) > 0
+    out = np.zeros(image.shape[:2], dtype=np.uint8)
     degrees = np.degrees(np.arctan2(dy[edges].astype(np.float32), dx[edges].astype(np.float32)))
     out[edges] = (np.rint(degrees).astype(np.int32) % 180 + 1).astype(np.uint8)
     return out
@@ -218,6 +234,92 @@ def contour_costs(
         moving,
     )
     return ContourFit(costs, matched, moving)
+
+
+@numba.njit(cache=True, fastmath=True, nogil=True, parallel=True)
+def _colour_costs(
+    skin: np.ndarray,
+    particles: np.ndarray,
+    points: np.ndarray,
+    normals: np.ndarray,
+    depth: float,
+    samples: int,
+    interior_weight: float,
+    costs: np.ndarray,
+) -> None:
+    height, width = skin.shape
+    num_points = points.shape[0]
+    for i in numba.prange(particles.shape[0]):
+        x = particles[i, 0]
+        y = particles[i, 1]
+        scale = particles[i, 2]
+        c = np.cos(particles[i, 3])
+        s = np.sin(particles[i, 3])
+        step = depth * scale / samples
+        total = 0.0
+        for j in range(num_points):
+            px = x + scale * (c * points[j, 0] - s * points[j, 1])
+            py = y + scale * (s * points[j, 0] + c * points[j, 1])
+            nx = c * normals[j, 0] - s * normals[j, 1]
+            ny = s * normals[j, 0] + c * normals[j, 1]
+            inside_not_skin = 0.0
+            outside_skin = 0.0
+            for k in range(1, samples + 1):
+                for sign in (-1.0, 1.0):
+                    u = int(np.floor(px + sign * k * step * nx + 0.5))
+                    v = int(np.floor(py + sign * k * step * ny + 0.5))
+                    label = 1.0 if 0 <= u < width and 0 <= v < height and skin[v, u] != 0 else 0.0
+                    if sign < 0.0:
+                        inside_not_skin += 1.0 - label
+                    else:
+                        outside_skin += label
+            total += (inside_not_skin / interior_weight + outside_skin) / samples
+        costs[i] = total
+
+
+def colour_costs(
+    skin: np.ndarray,
+    particles: np.ndarray,
+    points: np.ndarray,
+    normals: np.ndarray,
+    *,
+    interior_weight: float = 2.0,
+    depth: float = 0.1,
+    samples: int = 3,
+) -> np.ndarray:
+    """Σ_j γ_colour(j) for every particle: the colour term of §3.2.
+
+    Args:
+        skin: ``(H, W) uint8`` skin labels, non-zero on skin.
+        particles: ``(P, 4) float64`` states x, y (pixels), s (pixels/unit), θ (radians).
+        points: ``(N, 2) float64`` template measurement points, template units.
+        normals: ``(N, 2) float64`` unit normals at the points, pointing outwards.
+        interior_weight: w > 1, the weight dividing the interior term.
+        depth: How far into the interior and exterior the labels are sampled, template
+            units (a fraction of the reference region's width).
+        samples: Samples on each side of every point.
+
+    Returns:
+        ``(P,) float64`` the sum over points of γ_colour(j), each in [0, 1 + 1/w].
+    """
+    if interior_weight <= 1.0:
+        raise ValueError(f'interior_weight (w) must be > 1, got {interior_weight}')
+    if depth <= 0 or samples < 1:
+        raise ValueError(f'need depth > 0 and samples >= 1, got {depth}, {samples}')
+    if skin.ndim != 2:
+        raise ValueError(f'skin labels must be a 2-D image, got shape {skin.shape}')
+    costs = np.empty(particles.shape[0], dtype=np.float64)
+    _colour_costs(
+        np.ascontiguousarray(skin, dtype=np.uint8),
+        np.ascontiguousarray(particles, dtype=np.float64),
+        np.ascontiguousarray(points, dtype=np.float64),
+        np.ascontiguousarray(normals, dtype=np.float64),
+        float(depth),
+        int(samples),
+        float(interior_weight),
+        costs,
+    )
+    return costs
 
 
 def log_likelihood(costs: np.ndarray, likelihood_gain: float) -> np.ndarray:

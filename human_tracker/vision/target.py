@@ -18,6 +18,12 @@ test suits the background cue, where a person who stands still is still foregrou
 optical flow a still person does not move, so it stays off there. A lost target comes back
 through a motion hypothesis when a mask is given (the filter's own fit on clutter is no
 evidence of the person), and when the edges fit again when there is no mask.
+
+Skin labels (§3.2) enter in one of the paper's two ways (``colour_mode``): the colour term
+γ_colour in the likelihood (``weighted``), or as the area the template is fitted in
+(``mask``: edges only near skin). They can also delimit the region X_0 comes from
+(``init_region``): for a hand, skin regions, so that moving clothes do not start the
+filter (the template's fit tells the hand from the face and skin-coloured things).
 """
 
 from __future__ import annotations
@@ -28,16 +34,28 @@ from typing import NamedTuple
 import cv2
 import numpy as np
 
-from human_tracker.vision.initialisation import state_from_moments, state_from_scan
+from human_tracker.vision.initialisation import blobs, moments_state, state_from_scan
 from human_tracker.vision.measurement import edge_map
 from human_tracker.vision.particle_filter import gaussian_cloud
 from human_tracker.vision.templates import ContourTemplate
 from human_tracker.vision.tracker import ContourTracker, TrackerParameters, TrackEstimate
 
-__all__ = ['INIT_METHODS', 'MOTION_MODES', 'Hypothesis', 'TargetParameters', 'TargetResult', 'TargetTracker']
+__all__ = [
+    'COLOUR_MODES',
+    'INIT_METHODS',
+    'INIT_REGIONS',
+    'MOTION_MODES',
+    'Hypothesis',
+    'TargetParameters',
+    'TargetResult',
+    'TargetTracker',
+    'parameters_for',
+]
 
 MOTION_MODES = ('off', 'weighted', 'mask')
+COLOUR_MODES = ('off', 'weighted', 'mask')
 INIT_METHODS = ('scan', 'moments')
+INIT_REGIONS = ('motion', 'skin')
 
 WAITING = 'WAITING'
 TRACKING = 'TRACKING'
@@ -51,6 +69,11 @@ class TargetParameters:
     Attributes:
         motion_mode: ``off`` (eqs. 1-2), ``weighted`` (eqs. 3-4) or ``mask`` (edges on moving
             pixels only).
+        colour_mode: ``off``, ``weighted`` (the colour term of §3.2 in the likelihood) or
+            ``mask`` (edges only within ``skin_margin`` of skin: skin regions delimit the fit).
+        skin_margin: Dilation, pixels, of the skin regions in the ``mask`` colour mode.
+        init_region: Where X_0 comes from: ``motion`` (the moving region) or ``skin`` (skin
+            regions); when that cue is missing on a frame, the other one.
         init_method: ``scan`` (§2.5.2, head from the top of the moving region) or ``moments``
             (§2.5.1, blob moments; for a hand or a head alone).
         upright_angle: θ_upright of the scan initialisation, radians.
@@ -61,16 +84,23 @@ class TargetParameters:
         switch_margin: How much better than the current estimate a hypothesis elsewhere must
             score to restart the filter there.
         hypothesis_samples: States drawn around X_0 (twice ``initial_spread``) to score it.
+        hypothesis_blobs: With ``moments``, how many of the largest regions each give an X_0
+            (the best-fitting one wins: the hand among the skin-coloured regions).
         lost_confidence: Fraction of contour points finding an edge below which a frame is weak.
         lost_motion_support: Fraction of contour points on the motion mask below which a
             frame with a mask is weak; 0 disables the test (use it with the foreground cue).
         lost_frames: Consecutive weak frames after which the target is lost.
+        colour_edges: Detect edges on the colour image (strongest channel per pixel) when
+            ``process`` is given one, not on its intensity.
         edge_blur_sigma: Gaussian pre-filter of the edge detector, pixels.
         canny_low: Canny low threshold.
         canny_high: Canny high threshold.
     """
 
     motion_mode: str = 'weighted'
+    colour_mode: str = 'weighted'
+    skin_margin: int = 4
+    init_region: str = 'motion'
     init_method: str = 'scan'
     upright_angle: float = 0.0
     min_blob_area: int = 1000
@@ -78,9 +108,11 @@ class TargetParameters:
     init_confidence: float = 0.45
     switch_margin: float = 0.2
     hypothesis_samples: int = 128
+    hypothesis_blobs: int = 1
     lost_confidence: float = 0.3
     lost_motion_support: float = 0.0
     lost_frames: int = 5
+    colour_edges: bool = False
     edge_blur_sigma: float = 1.5
     canny_low: float = 40.0
     canny_high: float = 100.0
@@ -89,6 +121,12 @@ class TargetParameters:
         """Raise ValueError naming the first parameter out of its range."""
         if self.motion_mode not in MOTION_MODES:
             raise ValueError(f'motion_mode must be one of {", ".join(MOTION_MODES)}, got {self.motion_mode!r}')
+        if self.colour_mode not in COLOUR_MODES:
+            raise ValueError(f'colour_mode must be one of {", ".join(COLOUR_MODES)}, got {self.colour_mode!r}')
+        if self.init_region not in INIT_REGIONS:
+            raise ValueError(f'init_region must be one of {", ".join(INIT_REGIONS)}, got {self.init_region!r}')
+        if self.skin_margin < 0:
+            raise ValueError(f'skin_margin must be >= 0, got {self.skin_margin}')
         if self.init_method not in INIT_METHODS:
             raise ValueError(f'init_method must be one of {", ".join(INIT_METHODS)}, got {self.init_method!r}')
         if self.min_blob_area < 1:
@@ -97,8 +135,11 @@ class TargetParameters:
             raise ValueError(
                 f'init_confidence and switch_margin must be in [0, 1], got {self.init_confidence}, {self.switch_margin}'
             )
-        if self.hypothesis_samples < 1:
-            raise ValueError(f'hypothesis_samples must be >= 1, got {self.hypothesis_samples}')
+        if self.hypothesis_samples < 1 or self.hypothesis_blobs < 1:
+            raise ValueError(
+                f'hypothesis_samples and hypothesis_blobs must be >= 1, got '
+                f'{self.hypothesis_samples}, {self.hypothesis_blobs}'
+            )
         if not 0.0 <= self.lost_confidence <= 1.0 or not 0.0 <= self.lost_motion_support <= 1.0:
             raise ValueError(
                 'lost_confidence and lost_motion_support must be in [0, 1], '
@@ -108,6 +149,22 @@ class TargetParameters:
             raise ValueError(f'lost_frames must be >= 1, got {self.lost_frames}')
         if self.canny_low < 0 or self.canny_high < self.canny_low:
             raise ValueError(f'need 0 <= canny_low <= canny_high, got {self.canny_low}, {self.canny_high}')
+
+
+def parameters_for(target: str) -> TargetParameters:
+    """Defaults suited to a built-in target.
+
+    The head starts from the top of the moving region (§2.5.2) and fits intensity edges. The
+    hand starts from the moments (§2.5.1) of skin regions and fits colour edges: a hand is
+    often as bright as what is behind it, but rarely the same colour.
+    """
+    if target == 'hand':
+        # No switching while a hand is tracked: it stops and starts waving, and a swaying
+        # face or sleeve then moves more; a lost hand is found again among the skin regions.
+        return TargetParameters(
+            init_method='moments', init_region='skin', hypothesis_blobs=3, switch_margin=1.0, colour_edges=True
+        )
+    return TargetParameters()
 
 
 class Hypothesis(NamedTuple):
@@ -176,59 +233,90 @@ class TargetTracker:
         self.status = WAITING
         self.weak_frames = 0
 
-    def initial_state(self, motion: np.ndarray) -> np.ndarray | None:
-        """X_0 from the moving region (§2.5), or None if there is no usable region."""
+    def initial_region(self, motion: np.ndarray | None, skin: np.ndarray | None) -> np.ndarray | None:
+        """The mask X_0 is computed from (``init_region``), or None without the cues it needs."""
+        if self.parameters.init_region == 'skin' and skin is not None:
+            return skin
+        return motion if motion is not None else skin
+
+    def initial_states(self, region: np.ndarray) -> list[np.ndarray]:
+        """Candidate X_0 from a region mask (§2.5); empty if there is no usable region."""
         p = self.parameters
         if p.region_closing:
             # Join the silhouette's moving parts into one region; the likelihood keeps the
             # tight mask so that still edges next to a moving person do not count as moving.
-            motion = cv2.morphologyEx(
-                motion, cv2.MORPH_CLOSE, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * p.region_closing + 1,) * 2)
+            region = cv2.morphologyEx(
+                region, cv2.MORPH_CLOSE, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * p.region_closing + 1,) * 2)
             )
         if p.init_method == 'moments':
-            return state_from_moments(motion, self.template, p.min_blob_area)
-        return state_from_scan(motion, self.template, upright_angle=p.upright_angle, min_area=p.min_blob_area)
+            return [moments_state(b, self.template) for b in blobs(region, p.min_blob_area, p.hypothesis_blobs)]
+        start = state_from_scan(region, self.template, upright_angle=p.upright_angle, min_area=p.min_blob_area)
+        return [] if start is None else [start]
 
-    def hypothesis(self, motion: np.ndarray, edges: np.ndarray) -> Hypothesis | None:
-        """The best-fitting state in a cloud around X_0 of the moving region, with its scores."""
-        start = self.initial_state(motion)
+    def hypothesis(
+        self,
+        region: np.ndarray,
+        edges: np.ndarray,
+        motion: np.ndarray | None = None,
+        skin: np.ndarray | None = None,
+    ) -> Hypothesis | None:
+        """The best-fitting state in clouds around the X_0 of ``region``, with its scores."""
         fp = self.filter.parameters
-        if start is None or not fp.min_scale <= start[2] <= fp.max_scale:
-            return None
-        # Twice the initial spread: X_0 from a mask is coarse, the cloud must reach the silhouette.
-        cloud = gaussian_cloud(
-            start, 2.0 * np.asarray(fp.initial_spread), self.parameters.hypothesis_samples, self.filter.rng
-        )
-        cloud[0] = start
-        np.clip(cloud[:, 2], fp.min_scale, fp.max_scale, out=cloud[:, 2])
-        fit = self.filter.fit(edges, cloud, motion)
-        best = int(np.argmax(fit.matched + fit.moving))
+        best: tuple[float, Hypothesis] | None = None
         n = self.template.num_points
-        return Hypothesis(cloud[best], float(fit.matched[best]) / n, float(fit.moving[best]) / n)
+        for start in self.initial_states(region):
+            if not fp.min_scale <= start[2] <= fp.max_scale:
+                continue
+            # Twice the initial spread: X_0 from a mask is coarse, the cloud must reach the silhouette.
+            cloud = gaussian_cloud(
+                start, 2.0 * np.asarray(fp.initial_spread), self.parameters.hypothesis_samples, self.filter.rng
+            )
+            cloud[0] = start
+            np.clip(cloud[:, 2], fp.min_scale, fp.max_scale, out=cloud[:, 2])
+            fit = self.filter.fit(edges, cloud, motion, skin)
+            # With colour the likelihood itself ranks the states; edges alone would favour
+            # small contours that fit any clutter, so they rank by points on (moving) edges.
+            score = -fit.costs if skin is not None else fit.matched + fit.moving - 1e-6 * fit.costs
+            k = int(np.argmax(score))
+            if best is None or score[k] > best[0]:
+                best = (float(score[k]), Hypothesis(cloud[k], float(fit.matched[k]) / n, float(fit.moving[k]) / n))
+        return None if best is None else best[1]
 
-    def process(self, gray: np.ndarray, motion: np.ndarray | None = None) -> TargetResult:
+    def process(
+        self, image: np.ndarray, motion: np.ndarray | None = None, skin: np.ndarray | None = None
+    ) -> TargetResult:
         """Track on one frame.
 
         Args:
-            gray: ``(H, W) uint8`` intensity image.
+            image: ``(H, W) uint8`` intensity image, or ``(H, W, 3) uint8`` BGR image.
             motion: Optional ``(H, W) uint8`` mask, non-zero on moving pixels (foreground or
                 optical-flow motion) of the same frame.
+            skin: Optional ``(H, W) uint8`` skin labels of the same frame, non-zero on skin.
         """
         p = self.parameters
-        edges = edge_map(gray, blur_sigma=p.edge_blur_sigma, low_threshold=p.canny_low, high_threshold=p.canny_high)
-        if motion is not None and motion.shape != gray.shape:
-            raise ValueError(f'motion mask {motion.shape} does not match the image {gray.shape}')
-        likelihood_motion = None
+        if image.ndim == 3 and not p.colour_edges:
+            image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+        edges = edge_map(image, blur_sigma=p.edge_blur_sigma, low_threshold=p.canny_low, high_threshold=p.canny_high)
+        for name, mask in (('motion mask', motion), ('skin labels', skin)):
+            if mask is not None and mask.shape != image.shape[:2]:
+                raise ValueError(f'{name} {mask.shape} do not match the image {image.shape[:2]}')
+        likelihood_motion = likelihood_skin = None
         if motion is not None and p.motion_mode == 'mask':
             edges = np.where(motion > 0, edges, 0).astype(np.uint8)
         elif motion is not None and p.motion_mode == 'weighted':
             likelihood_motion = motion
-        estimate = self.filter.step(edges, likelihood_motion) if self.filter.initialised else None
+        if skin is not None and p.colour_mode == 'mask':
+            near_skin = cv2.dilate(skin, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * p.skin_margin + 1,) * 2))
+            edges = np.where(near_skin > 0, edges, 0).astype(np.uint8)
+        elif skin is not None and p.colour_mode == 'weighted':
+            likelihood_skin = skin
+        estimate = self.filter.step(edges, likelihood_motion, likelihood_skin) if self.filter.initialised else None
         initialised = False
-        found = self.hypothesis(motion, edges) if motion is not None else None
+        region = self.initial_region(motion, skin)
+        found = self.hypothesis(region, edges, motion, likelihood_skin) if region is not None else None
         if found is not None and self._should_start(found, estimate):
             self.filter.initialise(found.state)
-            estimate = self.filter.step(edges, likelihood_motion)
+            estimate = self.filter.step(edges, likelihood_motion, likelihood_skin)
             self.status, self.weak_frames, initialised = TRACKING, 0, True
         if estimate is None:
             return TargetResult(self.status, None)
@@ -238,9 +326,9 @@ class TargetTracker:
         self.weak_frames = self.weak_frames + 1 if weak else 0
         if self.weak_frames >= p.lost_frames:
             self.status = LOST
-        elif self.weak_frames == 0 and self.status == LOST and motion is None:
-            # Without a motion cue the edge fit is the only evidence; with one, a lost target
-            # comes back only through a motion hypothesis (an edge fit on clutter is not the person).
+        elif self.weak_frames == 0 and self.status == LOST and region is None:
+            # Without a region cue the edge fit is the only evidence; with one, a lost target
+            # comes back only through a hypothesis (an edge fit on clutter is not the person).
             self.status = TRACKING
         return TargetResult(self.status, estimate, initialised)
 

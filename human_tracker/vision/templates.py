@@ -19,6 +19,7 @@ from scipy.interpolate import splev, splprep
 __all__ = [
     'ContourTemplate',
     'head_and_shoulders',
+    'open_hand',
     'template_from_control_points',
     'load_template',
     'make_template',
@@ -51,6 +52,46 @@ _HEAD_AND_SHOULDERS = np.array(
     ],
 )
 _HEAD_BOX = (-0.5, -0.63, 1.0, 1.25)
+
+# Open right hand seen from the palm side, wrist to wrist round the thumb and the four
+# fingers. Unit frame: the hand (thumb tip to little finger) one unit wide, centred on the
+# origin; the spline stays open at the wrist, where the forearm continues.
+_OPEN_HAND = np.array(
+    [
+        [-0.10, 0.80],
+        [-0.16, 0.50],
+        [-0.28, 0.30],
+        [-0.42, 0.12],
+        [-0.50, -0.02],
+        [-0.43, -0.08],
+        [-0.32, 0.00],
+        [-0.20, 0.10],
+        [-0.18, -0.10],
+        [-0.21, -0.38],
+        [-0.16, -0.52],
+        [-0.08, -0.50],
+        [-0.04, -0.36],
+        [-0.01, -0.10],
+        [0.02, -0.42],
+        [0.06, -0.60],
+        [0.14, -0.62],
+        [0.18, -0.48],
+        [0.18, -0.10],
+        [0.21, -0.40],
+        [0.26, -0.53],
+        [0.33, -0.50],
+        [0.35, -0.36],
+        [0.34, -0.06],
+        [0.38, -0.26],
+        [0.43, -0.34],
+        [0.49, -0.30],
+        [0.50, -0.18],
+        [0.47, 0.10],
+        [0.42, 0.40],
+        [0.34, 0.80],
+    ],
+)
+_HAND_BOX = (-0.5, -0.62, 1.0, 1.22)
 
 
 @dataclass(frozen=True)
@@ -129,6 +170,11 @@ def head_and_shoulders(num_points: int = 48) -> ContourTemplate:
     return template_from_control_points(_HEAD_AND_SHOULDERS, num_points, _HEAD_BOX, name='head')
 
 
+def open_hand(num_points: int = 48) -> ContourTemplate:
+    """The hand template of Fig. 1 (an open spline round an open hand), hand one unit wide."""
+    return template_from_control_points(_OPEN_HAND, num_points, _HAND_BOX, name='hand')
+
+
 def load_template(path: str | Path, num_points: int = 48) -> ContourTemplate:
     """Load a template from a JSON file.
 
@@ -167,7 +213,7 @@ def transform_points(points: np.ndarray, state: np.ndarray) -> np.ndarray:
     return points @ rot.T * s + np.array([x, y])
 
 
-TARGETS = {'head': head_and_shoulders}
+TARGETS = {'head': head_and_shoulders, 'hand': open_hand}
 """Built-in templates by target name."""
 
 

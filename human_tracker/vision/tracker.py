@@ -7,7 +7,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from human_tracker.vision.dynamics import predict
-from human_tracker.vision.measurement import ContourFit, contour_costs, log_likelihood, normalised_weights
+from human_tracker.vision.measurement import (
+    ContourFit,
+    colour_costs,
+    contour_costs,
+    log_likelihood,
+    normalised_weights,
+)
 from human_tracker.vision.particle_filter import (
     effective_sample_size,
     gaussian_cloud,
@@ -34,6 +40,10 @@ class TrackerParameters:
         velocity_damping: a in the AR(2) matrix A (§2.2), in [0, 1].
         process_noise: W of §2.2: std of x, y (pixels), s (fraction), θ (radians).
         initial_spread: diagonal of Σ of §2.5, same units as process_noise.
+        interior_weight: w of the colour term (§3.2), > 1: how much less a non-skin pixel
+            inside the contour costs than a skin pixel outside.
+        colour_depth: How far inside and outside the contour the skin labels are sampled,
+            template units (a fraction of the reference region's width).
         min_scale: Smallest scale s (pixels per template unit: the reference region's width).
             A contour not much larger than its search band δ fits any edge blob, so the
             default is 2δ.
@@ -46,6 +56,8 @@ class TrackerParameters:
     miss_penalty: float = 144.0
     likelihood_gain: float = 0.01
     orientation_tolerance: float = 0.5
+    interior_weight: float = 2.0
+    colour_depth: float = 0.1
     velocity_damping: float = 0.6
     process_noise: tuple[float, float, float, float] = (5.0, 5.0, 0.01, 0.02)
     initial_spread: tuple[float, float, float, float] = (8.0, 8.0, 0.08, 0.08)
@@ -63,6 +75,8 @@ class TrackerParameters:
                 0 < self.orientation_tolerance <= np.pi / 2,
                 f'orientation_tolerance must be in (0, π/2], got {self.orientation_tolerance}',
             ),
+            (self.interior_weight > 1, f'interior_weight (w) must be > 1, got {self.interior_weight}'),
+            (0 < self.colour_depth <= 1, f'colour_depth must be in (0, 1], got {self.colour_depth}'),
             (self.likelihood_gain > 0, f'likelihood_gain (K) must be > 0, got {self.likelihood_gain}'),
             (0.0 <= self.velocity_damping <= 1.0, f'velocity_damping must be in [0, 1], got {self.velocity_damping}'),
             (
@@ -167,12 +181,15 @@ class ContourTracker:
         self.previous = None
         self.rng = np.random.default_rng(self.parameters.seed)
 
-    def step(self, edges: np.ndarray, motion: np.ndarray | None = None) -> TrackEstimate:
-        """Predict, weigh against ``edges`` (and ``motion``), estimate, resample.
+    def step(
+        self, edges: np.ndarray, motion: np.ndarray | None = None, skin: np.ndarray | None = None
+    ) -> TrackEstimate:
+        """Predict, weigh against ``edges`` (and ``motion``, ``skin``), estimate, resample.
 
         Args:
             edges: ``(H, W) uint8`` edge map (non-zero on edges).
             motion: Optional ``(H, W) uint8`` motion mask for eqs. 3-4.
+            skin: Optional ``(H, W) uint8`` skin labels for the colour term of §3.2.
 
         Returns:
             The estimate for this frame.
@@ -189,7 +206,7 @@ class ContourTracker:
             self.particles, self.previous, params.velocity_damping, np.asarray(params.process_noise), self.rng
         )
         np.clip(self.particles[:, 2], params.min_scale, params.max_scale, out=self.particles[:, 2])
-        fit = self.fit(edges, self.particles, motion)
+        fit = self.fit(edges, self.particles, motion, skin)
         weights = normalised_weights(log_likelihood(fit.costs, params.likelihood_gain))
         state = weighted_estimate(self.particles, weights)
         estimate = TrackEstimate(
@@ -206,10 +223,16 @@ class ContourTracker:
         self.previous = self.previous[keep]
         return estimate
 
-    def fit(self, edges: np.ndarray, states: np.ndarray, motion: np.ndarray | None = None) -> ContourFit:
-        """How the template fits the edges (and motion) at ``states`` ``(P, 4)``: eqs. 2-4 per state."""
+    def fit(
+        self,
+        edges: np.ndarray,
+        states: np.ndarray,
+        motion: np.ndarray | None = None,
+        skin: np.ndarray | None = None,
+    ) -> ContourFit:
+        """How the template fits the image at ``states`` ``(P, 4)``: eqs. 2-4, plus ρ γ_colour (§3.2) with skin."""
         params = self.parameters
-        return contour_costs(
+        fit = contour_costs(
             edges,
             states,
             self.template.points,
@@ -219,6 +242,17 @@ class ContourTracker:
             motion=motion,
             orientation_tolerance=params.orientation_tolerance,
         )
+        if skin is None:
+            return fit
+        colour = colour_costs(
+            skin,
+            states,
+            self.template.points,
+            self.template.normals,
+            interior_weight=params.interior_weight,
+            depth=params.colour_depth,
+        )
+        return fit._replace(costs=fit.costs + params.miss_penalty * colour)
 
     def _resize(self, count: int) -> None:
         """Change the particle count at run time by resampling the current cloud uniformly."""

@@ -1,0 +1,496 @@
+"""Skin colour segmentation of §3.2 in Ohta's I1 I2 I3 colour space.
+
+The segmentation has the paper's two phases:
+
+1. **Cells.** The image is divided into square cells. A cell whose mean chromaticity
+   (I2, I3) falls inside one of the learnt skin classes is a candidate, and candidate cells
+   are merged into regions through their adjacency graph (8-connected cells).
+2. **Local clustering.** In each region, grown by one cell so that its border pixels are
+   looked at too, the principal peaks of the I1, I2 and I3 histograms and the valleys that
+   bound them define modes; a pixel's cluster is its region and the modes its I1, I2, I3
+   fall in. A cluster is labelled skin when the mean and the variance of its (I2, I3) match
+   a learnt skin class.
+
+The skin classes are Gaussian clusters in the (I2, I3) plane learnt from labelled samples
+(:func:`train_skin_model`, the ``human_tracker train-skin`` command) and shipped with the
+package (:func:`default_skin_model`). :class:`SkinSegmenter` can adapt them online from
+the tracked region, within a bounded distance of what was learnt.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field, replace
+from importlib import resources
+from pathlib import Path
+
+import cv2
+import numpy as np
+from scipy.cluster.vq import kmeans2
+from scipy.ndimage import gaussian_filter1d
+
+__all__ = [
+    'SkinClass',
+    'SkinModel',
+    'SkinParameters',
+    'SkinSegmenter',
+    'candidate_cells',
+    'default_skin_model',
+    'histogram_modes',
+    'merge_cells',
+    'ohta',
+    'segment_skin',
+    'train_skin_model',
+]
+
+# Value ranges of I1, I2, I3 for 8-bit colour, used for the histograms.
+_RANGES = ((0.0, 255.0), (-127.5, 127.5), (-127.5, 127.5))
+
+
+def ohta(image: np.ndarray) -> np.ndarray:
+    """Ohta's I1 I2 I3 components of a BGR image.
+
+    I1 = (R + G + B) / 3 (intensity), I2 = (R - B) / 2, I3 = (2G - R - B) / 4 (chromaticity).
+
+    Args:
+        image: ``(..., 3) uint8`` (or float) pixels in B, G, R order.
+
+    Returns:
+        ``(..., 3) float32``: I1 in [0, 255], I2 and I3 in [-127.5, 127.5].
+    """
+    bgr = np.asarray(image, dtype=np.float32)
+    if bgr.shape[-1] != 3:
+        raise ValueError(f'expected B, G, R in the last axis, got shape {bgr.shape}')
+    b, g, r = bgr[..., 0], bgr[..., 1], bgr[..., 2]
+    return np.stack([(r + g + b) / 3.0, (r - b) / 2.0, (2.0 * g - r - b) / 4.0], axis=-1)
+
+
+@dataclass(frozen=True)
+class SkinClass:
+    """One learnt skin class: a Gaussian cluster in the (I2, I3) plane.
+
+    Attributes:
+        mean: ``(2,)`` mean I2, I3.
+        covariance: ``(2, 2)`` covariance of I2, I3 of the class's samples.
+    """
+
+    mean: np.ndarray
+    covariance: np.ndarray
+
+    def distance(self, chroma: np.ndarray) -> np.ndarray:
+        """Mahalanobis distance of ``(..., 2)`` (I2, I3) values to the class; shape ``(...)``."""
+        delta = np.asarray(chroma, dtype=np.float64) - self.mean
+        inverse = np.linalg.inv(self.covariance)
+        return np.sqrt(np.maximum(np.einsum('...i,ij,...j->...', delta, inverse, delta), 0.0))
+
+
+@dataclass(frozen=True)
+class SkinModel:
+    """The learnt skin classes of §3.2.
+
+    Attributes:
+        classes: The skin classes.
+        match_distance: Mahalanobis distance within which a colour belongs to a class; set
+            in training so that a chosen fraction of the skin samples falls within it.
+        notes: Where the model comes from and how it scored in training (free text).
+    """
+
+    classes: tuple[SkinClass, ...]
+    match_distance: float
+    notes: dict = field(default_factory=dict, compare=False)
+
+    def distance(self, chroma: np.ndarray) -> np.ndarray:
+        """Distance of ``(..., 2)`` (I2, I3) values to the nearest class; shape ``(...)``."""
+        return np.min([c.distance(chroma) for c in self.classes], axis=0)
+
+    def nearest(self, chroma: np.ndarray) -> np.ndarray:
+        """Index of the nearest class for ``(..., 2)`` (I2, I3) values; shape ``(...)``."""
+        return np.argmin([c.distance(chroma) for c in self.classes], axis=0)
+
+    def to_json(self) -> str:
+        """The model as JSON (the shipped data file's format)."""
+        return json.dumps(
+            {
+                'match_distance': self.match_distance,
+                'classes': [
+                    {'mean': c.mean.round(4).tolist(), 'covariance': c.covariance.round(4).tolist()}
+                    for c in self.classes
+                ],
+                'notes': self.notes,
+            },
+            indent=1,
+        )
+
+    @classmethod
+    def from_json(cls, text: str) -> SkinModel:
+        """Parse :meth:`to_json` output.
+
+        Raises:
+            ValueError: Malformed JSON, or classes that are not proper Gaussians.
+        """
+        try:
+            spec = json.loads(text)
+            classes = tuple(
+                SkinClass(np.asarray(c['mean'], dtype=np.float64), np.asarray(c['covariance'], dtype=np.float64))
+                for c in spec['classes']
+            )
+            match_distance = float(spec['match_distance'])
+        except (ValueError, KeyError, TypeError) as err:
+            raise ValueError(f'malformed skin model: {err}') from err
+        if not classes or match_distance <= 0:
+            raise ValueError('a skin model needs at least one class and match_distance > 0')
+        for c in classes:
+            if c.mean.shape != (2,) or c.covariance.shape != (2, 2) or np.any(np.linalg.eigvalsh(c.covariance) <= 0):
+                raise ValueError('each skin class needs a (2,) mean and a positive definite (2, 2) covariance')
+        return cls(classes, match_distance, dict(spec.get('notes', {})))
+
+    @classmethod
+    def load(cls, path: str | Path) -> SkinModel:
+        """Load a model file written by ``human_tracker train-skin``.
+
+        Raises:
+            ValueError: The file is missing or malformed; the message names it.
+        """
+        try:
+            return cls.from_json(Path(path).read_text())
+        except (OSError, ValueError) as err:
+            raise ValueError(f'cannot load skin model {path}: {err}') from err
+
+
+def default_skin_model() -> SkinModel:
+    """The model shipped in the package (trained on the UCI skin samples, see its notes)."""
+    return SkinModel.from_json(resources.files('human_tracker.data').joinpath('skin_model.json').read_text())
+
+
+def train_skin_model(
+    bgr: np.ndarray,
+    is_skin: np.ndarray,
+    *,
+    num_classes: int = 4,
+    skin_coverage: float = 0.95,
+    seed: int = 0,
+) -> SkinModel:
+    """Learn skin classes from labelled colour samples (the paper's training phase).
+
+    The skin samples' (I2, I3) are split into ``num_classes`` clusters by k-means; each
+    class is the Gaussian (mean, covariance) of its cluster. ``match_distance`` is the
+    Mahalanobis distance to the nearest class within which ``skin_coverage`` of the skin
+    samples fall.
+
+    Args:
+        bgr: ``(M, 3)`` sample colours, B, G, R order, 0-255.
+        is_skin: ``(M,) bool``, True for skin samples.
+        num_classes: Number of skin classes (clusters).
+        skin_coverage: Fraction of skin samples the classes must cover, in (0, 1).
+        seed: Seed of the k-means initialisation.
+
+    Returns:
+        The model; its notes record the sample counts and the fraction of non-skin samples
+        that fall within ``match_distance`` (the false-positive rate per pixel).
+    """
+    is_skin = np.asarray(is_skin, dtype=bool)
+    chroma = ohta(np.asarray(bgr, dtype=np.float32))[:, 1:].astype(np.float64)
+    skin = chroma[is_skin]
+    if skin.shape[0] < 10 * num_classes:
+        raise ValueError(f'need at least {10 * num_classes} skin samples, got {skin.shape[0]}')
+    if not 0.0 < skin_coverage < 1.0:
+        raise ValueError(f'skin_coverage must be in (0, 1), got {skin_coverage}')
+    _, labels = kmeans2(skin, num_classes, minit='++', seed=np.random.default_rng(seed))
+    classes = tuple(
+        SkinClass(skin[labels == k].mean(axis=0), np.cov(skin[labels == k].T) + np.eye(2))
+        for k in range(num_classes)
+        if np.count_nonzero(labels == k) > 2
+    )
+    model = SkinModel(classes, 1.0)
+    match_distance = float(np.quantile(model.distance(skin), skin_coverage))
+    non_skin = chroma[~is_skin]
+    accepted = float(np.mean(model.distance(non_skin) <= match_distance)) if non_skin.size else float('nan')
+    notes = {
+        'skin_samples': int(skin.shape[0]),
+        'non_skin_samples': int(non_skin.shape[0]),
+        'skin_coverage': skin_coverage,
+        'non_skin_accepted': round(accepted, 4),
+    }
+    return SkinModel(classes, match_distance, notes)
+
+
+@dataclass
+class SkinParameters:
+    """Constants of the two-phase segmentation.
+
+    Attributes:
+        cell_size: Side of the square cells of the first partition, pixels.
+        min_region_cells: Smallest merged region, in cells, that is kept.
+        histogram_bins: Bins of each local I1, I2, I3 histogram.
+        histogram_smoothing: Standard deviation (bins) of the Gaussian smoothing of the
+            histograms before peaks and valleys are found.
+        peak_fraction: A peak lower than this fraction of a histogram's highest peak is not
+            a principal peak.
+        support_fraction: A peak's mode extends down its slopes to this fraction of its height
+            (or to a valley).
+        max_peaks: Largest number of principal peaks kept per histogram.
+        min_cluster_pixels: Clusters with fewer pixels are not labelled skin.
+        variance_ratio: Largest ratio between a cluster's (I2, I3) variance and the matching
+            class's variance for the cluster to be skin.
+        match_scale: Multiplies the model's ``match_distance`` (above 1: more permissive).
+    """
+
+    cell_size: int = 8
+    min_region_cells: int = 2
+    histogram_bins: int = 64
+    histogram_smoothing: float = 1.0
+    peak_fraction: float = 0.1
+    support_fraction: float = 0.1
+    max_peaks: int = 3
+    min_cluster_pixels: int = 16
+    variance_ratio: float = 6.0
+    match_scale: float = 1.5
+
+    def validate(self) -> None:
+        """Raise ValueError naming the first parameter out of its range."""
+        checks = [
+            (self.cell_size >= 2, f'cell_size must be >= 2, got {self.cell_size}'),
+            (self.min_region_cells >= 1, f'min_region_cells must be >= 1, got {self.min_region_cells}'),
+            (self.histogram_bins >= 4, f'histogram_bins must be >= 4, got {self.histogram_bins}'),
+            (self.histogram_smoothing >= 0, f'histogram_smoothing must be >= 0, got {self.histogram_smoothing}'),
+            (0.0 <= self.peak_fraction <= 1.0, f'peak_fraction must be in [0, 1], got {self.peak_fraction}'),
+            (0.0 <= self.support_fraction < 1.0, f'support_fraction must be in [0, 1), got {self.support_fraction}'),
+            (1 <= self.max_peaks <= 8, f'max_peaks must be in [1, 8], got {self.max_peaks}'),
+            (self.min_cluster_pixels >= 1, f'min_cluster_pixels must be >= 1, got {self.min_cluster_pixels}'),
+            (self.variance_ratio > 0, f'variance_ratio must be > 0, got {self.variance_ratio}'),
+            (self.match_scale > 0, f'match_scale must be > 0, got {self.match_scale}'),
+        ]
+        for ok, message in checks:
+            if not ok:
+                raise ValueError(message)
+
+
+def candidate_cells(chroma: np.ndarray, model: SkinModel, cell_size: int, match_scale: float = 1.0) -> np.ndarray:
+    """Phase 1a: cells whose mean (I2, I3) lies within the skin classes.
+
+    Args:
+        chroma: ``(H, W, 2)`` I2, I3 of the image.
+        model: The skin classes.
+        cell_size: Cell side, pixels; a partial last row / column of cells is ignored.
+        match_scale: Multiplies ``model.match_distance``.
+
+    Returns:
+        ``(H // cell_size, W // cell_size) bool``, True for candidate skin cells.
+    """
+    rows, cols = chroma.shape[0] // cell_size, chroma.shape[1] // cell_size
+    if rows == 0 or cols == 0:
+        return np.zeros((rows, cols), dtype=bool)
+    cropped = chroma[: rows * cell_size, : cols * cell_size]
+    means = cropped.reshape(rows, cell_size, cols, cell_size, 2).mean(axis=(1, 3))
+    return model.distance(means) <= model.match_distance * match_scale
+
+
+def merge_cells(candidates: np.ndarray, min_region_cells: int = 1) -> tuple[np.ndarray, int]:
+    """Phase 1b: merge adjacent candidate cells (8-connected) into regions.
+
+    Args:
+        candidates: ``(R, C) bool`` candidate cells.
+        min_region_cells: Regions with fewer cells are dropped.
+
+    Returns:
+        ``(R, C) int32`` labels (0: no region, 1..n: regions) and n.
+    """
+    count, labels = cv2.connectedComponents(candidates.astype(np.uint8), connectivity=8)
+    sizes = np.bincount(labels.ravel(), minlength=count)
+    keep = sizes >= min_region_cells
+    keep[0] = False
+    relabel = np.zeros(count, dtype=np.int32)
+    relabel[keep] = np.arange(1, np.count_nonzero(keep) + 1, dtype=np.int32)
+    return relabel[labels], int(np.count_nonzero(keep))
+
+
+def histogram_modes(
+    histogram: np.ndarray,
+    *,
+    smoothing: float = 1.0,
+    peak_fraction: float = 0.1,
+    support_fraction: float = 0.1,
+    max_peaks: int = 3,
+) -> np.ndarray:
+    """Phase 2: which principal peak (mode) of a histogram each bin belongs to.
+
+    A principal peak is a local maximum of the smoothed histogram reaching ``peak_fraction``
+    of the highest one (the ``max_peaks`` highest are kept). A peak's mode runs down both of
+    its slopes until a valley (the histogram rises again) or until the histogram falls
+    below ``support_fraction`` of the peak's height. Bins outside every mode hold the
+    spread-out rest of the region (background around the skin, usually), which gets its
+    own label so that it does not dilute a mode's mean and variance.
+
+    Args:
+        histogram: ``(B,)`` counts.
+        smoothing: Standard deviation, bins, of the Gaussian smoothing (0: none).
+        peak_fraction: Height, relative to the highest peak, a principal peak must reach.
+        support_fraction: Height, relative to its peak, down to which a mode extends.
+        max_peaks: Largest number of modes.
+
+    Returns:
+        ``(B,) int64``: the mode of each bin, 0 for the highest peak, 1 for the next, ...;
+        ``max_peaks`` for bins in no mode.
+    """
+    smooth = np.asarray(histogram, dtype=np.float64)
+    if smoothing > 0:
+        smooth = gaussian_filter1d(smooth, smoothing, mode='constant')
+    bins = smooth.shape[0]
+    modes = np.full(bins, max_peaks, dtype=np.int64)
+    padded = np.concatenate([[-1.0], smooth, [-1.0]])
+    is_peak = (padded[1:-1] > padded[:-2]) & (padded[1:-1] >= padded[2:]) & (smooth > 0)
+    peaks = np.flatnonzero(is_peak & (smooth >= peak_fraction * smooth.max(initial=0.0)))
+    for mode, peak in enumerate(peaks[np.argsort(-smooth[peaks], kind='stable')][:max_peaks]):
+        floor = support_fraction * smooth[peak]
+        modes[peak] = mode
+        for direction in (-1, 1):
+            b = peak + direction
+            while 0 <= b < bins and modes[b] == max_peaks and floor <= smooth[b] <= smooth[b - direction]:
+                modes[b] = mode
+                b += direction
+    return modes
+
+
+def _bins(values: np.ndarray, channel: int, bins: int) -> np.ndarray:
+    low, high = _RANGES[channel]
+    return np.clip(((values - low) * (bins / (high - low))).astype(np.int64), 0, bins - 1)
+
+
+def segment_skin(
+    image: np.ndarray,
+    model: SkinModel,
+    parameters: SkinParameters | None = None,
+) -> np.ndarray:
+    """Skin labels of a colour image (§3.2, both phases).
+
+    Args:
+        image: ``(H, W, 3) uint8`` BGR image.
+        model: The learnt skin classes.
+        parameters: Segmentation constants (defaults when None).
+
+    Returns:
+        ``(H, W) uint8``: 255 on pixels labelled skin, 0 elsewhere.
+    """
+    p = parameters or SkinParameters()
+    if image.ndim != 3 or image.shape[2] != 3:
+        raise ValueError(f'skin segmentation needs a (H, W, 3) colour image, got shape {image.shape}')
+    height, width = image.shape[:2]
+    mask = np.zeros((height, width), dtype=np.uint8)
+    components = ohta(image)
+    cells, count = merge_cells(
+        candidate_cells(components[..., 1:], model, p.cell_size, p.match_scale), p.min_region_cells
+    )
+    if count == 0:
+        return mask
+    # Each region grows by one cell (the dilation keeps the larger label where two meet) so
+    # that pixels of skin in cells that were mostly background are looked at too.
+    grown = cv2.dilate(cells.astype(np.uint16), np.ones((3, 3), np.uint8)).astype(np.int32)
+    region = np.zeros((height, width), dtype=np.int32)
+    region[: cells.shape[0] * p.cell_size, : cells.shape[1] * p.cell_size] = np.kron(
+        grown, np.ones((p.cell_size, p.cell_size), dtype=np.int32)
+    )
+    ys, xs = np.nonzero(region)
+    labels = region[ys, xs] - 1
+    values = components[ys, xs]
+    bins = p.histogram_bins
+    modes = np.zeros((values.shape[0], 3), dtype=np.int64)
+    for channel in range(3):
+        binned = _bins(values[:, channel], channel, bins)
+        histograms = np.bincount(labels * bins + binned, minlength=count * bins).reshape(count, bins)
+        lookup = np.stack(
+            [
+                histogram_modes(
+                    histograms[r],
+                    smoothing=p.histogram_smoothing,
+                    peak_fraction=p.peak_fraction,
+                    support_fraction=p.support_fraction,
+                    max_peaks=p.max_peaks,
+                )
+                for r in range(count)
+            ]
+        )
+        modes[:, channel] = lookup[labels, binned]
+    # A pixel's cluster: its region and its mode in each of I1, I2, I3 (max_peaks + 1 each).
+    k = p.max_peaks + 1
+    cluster = labels * k**3 + (modes[:, 0] * k + modes[:, 1]) * k + modes[:, 2]
+    size = count * k**3
+    n = np.bincount(cluster, minlength=size).astype(np.float64)
+    chroma = values[:, 1:].astype(np.float64)
+    sums = np.stack([np.bincount(cluster, chroma[:, k], minlength=size) for k in range(2)], axis=1)
+    squares = np.stack([np.bincount(cluster, chroma[:, k] ** 2, minlength=size) for k in range(2)], axis=1)
+    populated = n >= p.min_cluster_pixels
+    safe = np.maximum(n, 1.0)[:, None]
+    means = sums / safe
+    variances = np.maximum(squares / safe - means**2, 0.0)
+    is_skin = populated & (model.distance(means) <= model.match_distance * p.match_scale)
+    nearest = model.nearest(means)
+    class_variances = np.array([np.diag(c.covariance) for c in model.classes])[nearest]
+    is_skin &= np.all(variances <= p.variance_ratio * class_variances, axis=1)
+    mask[ys[is_skin[cluster]], xs[is_skin[cluster]]] = 255
+    return mask
+
+
+@dataclass
+class SkinSegmenter:
+    """Segmentation with online adaptation of the skin classes to the tracked target.
+
+    Attributes:
+        prior: The learnt model; adaptation never strays further than ``max_drift`` from it.
+        parameters: Segmentation constants.
+        adaptation_rate: Weight of the newest observation when the classes adapt, in [0, 1];
+            0 disables adaptation.
+        max_drift: Largest Mahalanobis distance (in the prior class's metric) an adapted class
+            mean may move from its prior mean.
+        model: The current, possibly adapted, model.
+    """
+
+    prior: SkinModel
+    parameters: SkinParameters = field(default_factory=SkinParameters)
+    adaptation_rate: float = 0.0
+    max_drift: float = 1.5
+    model: SkinModel = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.parameters.validate()
+        if not 0.0 <= self.adaptation_rate <= 1.0:
+            raise ValueError(f'adaptation_rate must be in [0, 1], got {self.adaptation_rate}')
+        self.model = self.prior
+
+    def segment(self, image: np.ndarray) -> np.ndarray:
+        """Skin labels of ``image`` with the current model; see :func:`segment_skin`."""
+        return segment_skin(image, self.model, self.parameters)
+
+    def adapt(self, image: np.ndarray, region: np.ndarray, skin: np.ndarray) -> bool:
+        """Move the nearest class towards the skin pixels of the tracked region.
+
+        Args:
+            image: ``(H, W, 3) uint8`` BGR frame.
+            region: ``(H, W)`` non-zero inside the tracked target.
+            skin: ``(H, W)`` this frame's skin labels (only pixels labelled skin are used,
+                so background inside the region does not pull the classes away).
+
+        Returns:
+            Whether the model changed (False when adaptation is off, too few pixels, or the
+            region's colour lies further than ``max_drift`` from every prior class).
+        """
+        selected = (np.asarray(region) > 0) & (np.asarray(skin) > 0)
+        if self.adaptation_rate <= 0 or np.count_nonzero(selected) < self.parameters.min_cluster_pixels:
+            return False
+        chroma = ohta(image[selected])[:, 1:].astype(np.float64)
+        mean = chroma.mean(axis=0)
+        k = int(self.prior.nearest(mean))
+        prior = self.prior.classes[k]
+        current = self.model.classes[k]
+        rate = self.adaptation_rate
+        adapted_mean = (1 - rate) * current.mean + rate * mean
+        if prior.distance(adapted_mean) > self.max_drift:
+            return False
+        covariance = (1 - rate) * current.covariance + rate * (np.cov(chroma.T) + np.eye(2))
+        classes = list(self.model.classes)
+        classes[k] = SkinClass(adapted_mean, covariance)
+        self.model = replace(self.model, classes=tuple(classes))
+        return True
+
+    def reset(self) -> None:
+        """Forget the adaptation (back to the learnt classes)."""
+        self.model = self.prior

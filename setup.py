@@ -30,6 +30,7 @@ setup(
             f'pipeline = {PACKAGE}.ros.pipeline:main',
             f'background_node = {PACKAGE}.ros.background_node:main',
             f'optical_flow_node = {PACKAGE}.ros.optical_flow_node:main',
+            f'skin_node = {PACKAGE}.ros.skin_node:main',
             f'bag_play = {PACKAGE}.ros.bag_play:main',
             f'video_publisher = {PACKAGE}.ros.video_publisher:main',
             f'human_tracker = {PACKAGE}.cli:main',

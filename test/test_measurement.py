@@ -5,7 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from human_tracker.vision.measurement import contour_costs, edge_map, log_likelihood, normalised_weights
+from human_tracker.vision.measurement import (
+    colour_costs,
+    contour_costs,
+    edge_map,
+    log_likelihood,
+    normalised_weights,
+)
 
 VERTICAL_EDGE = 1  # 1 + orientation 0°: the gradient of a vertical edge points along x
 
@@ -80,6 +86,34 @@ def test_orientation_tolerance_rejects_edges_across_the_normal() -> None:
     assert hit[0] == pytest.approx(9)
     paper, _, _ = contour_costs(edges, particles, point, along_y, search_halfwidth=5, miss_penalty=50)
     assert paper[0] == pytest.approx(9)
+
+
+def test_colour_term_by_hand() -> None:
+    # One point at (10, 10) looking along +x; depth 0.3 at s = 10 with 3 samples: interior
+    # samples at x = 9, 8, 7, exterior ones at x = 11, 12, 13.
+    particles = np.array([[10.0, 10.0, 10.0, 0.0]])
+    point, normal = POINTS[:1], NORMALS[:1]
+    skin = np.zeros((20, 20), dtype=np.uint8)
+    skin[:, :12] = 255  # skin up to x = 11: interior all skin, one exterior sample on skin
+    gamma = colour_costs(skin, particles, point, normal, interior_weight=2.0, depth=0.3, samples=3)
+    assert gamma[0] == pytest.approx((0 / 2 + 1) / 3)
+    skin[:] = 0
+    skin[:, :9] = 255  # skin up to x = 8: x = 9 inside is not skin, outside is clean
+    gamma = colour_costs(skin, particles, point, normal, interior_weight=2.0, depth=0.3, samples=3)
+    assert gamma[0] == pytest.approx((1 / 2 + 0) / 3)
+    # w > 1 is the paper's condition; the samples off the image count as not skin.
+    with pytest.raises(ValueError, match='w'):
+        colour_costs(skin, particles, point, normal, interior_weight=1.0)
+    outside = colour_costs(skin, np.array([[-50.0, -50.0, 10.0, 0.0]]), point, normal, depth=0.3, samples=3)
+    assert outside[0] == pytest.approx((3 / 2) / 3)
+
+
+def test_colour_edges_see_a_step_between_equally_bright_colours() -> None:
+    image = np.zeros((30, 30, 3), dtype=np.uint8)
+    image[:, :15] = (0, 0, 200)  # red and blue halves of about the same intensity
+    image[:, 15:] = (200, 0, 0)
+    assert edge_map(image, blur_sigma=1.0).any()
+    assert not edge_map(image.mean(axis=2).astype(np.uint8), blur_sigma=1.0).any()
 
 
 def test_eq1_likelihood_and_weights() -> None:

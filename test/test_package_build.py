@@ -18,6 +18,7 @@ EXECUTABLES = (
     'pipeline',
     'background_node',
     'optical_flow_node',
+    'skin_node',
     'video_publisher',
     'bag_play',
     'human_tracker',
@@ -73,6 +74,7 @@ def test_share_files_and_scripts_are_installed(install_space: Path) -> None:
         'package.xml',
         'launch/human_tracker.launch.py',
         'config/human_tracker.yaml',
+        'config/hand_tracker.yaml',
         'config/fastdds_large_shm.xml',
     ):
         assert (share / 'human_tracker' / name).exists(), name
@@ -94,7 +96,7 @@ def test_command_line_tools_start(install_space: Path, name: str) -> None:
     assert process.returncode == 0 and 'usage' in out, out
 
 
-@pytest.mark.parametrize('name', ['tracker_node', 'pipeline', 'background_node', 'optical_flow_node'])
+@pytest.mark.parametrize('name', ['tracker_node', 'pipeline', 'background_node', 'optical_flow_node', 'skin_node'])
 def test_nodes_start_and_stop_cleanly(install_space: Path, name: str, tmp_path: Path) -> None:
     log = (tmp_path / 'node.log').open('w+')
     script = f'source {install_space}/setup.bash && exec {install_space}/human_tracker/lib/human_tracker/{name}'

@@ -20,10 +20,11 @@ from test_target import track
 from human_tracker.demo import node_arguments
 from human_tracker.evaluation.metrics import summarise
 from human_tracker.io.bags import CAMERA_TOPIC, COMPRESSED_CAMERA_TOPIC, read_frames, write_scene_bag
+from human_tracker.offline import TrackOptions, read_poses, track_sequence
 from human_tracker.ros.processes import NodeProcess
 from human_tracker.scenes.generator import SCENES
 from human_tracker.vision.camera import default_camera_matrix
-from human_tracker.vision.templates import fit_state, head_and_shoulders
+from human_tracker.vision.templates import fit_state, head_and_shoulders, open_hand
 from human_tracker.vision.tracker import box_from_state
 
 
@@ -109,11 +110,70 @@ def test_motion_stage_and_tracker_in_separate_processes(
     print(f'{stage} -> tracker_node on {bag_name}: {len(collector.poses)} poses for {len(frames)} frames; {summary}')
     print(f'tracker_node diagnostics: {diagnostics}')
     assert diagnostics.get('frames_processed') == str(len(frames))
-    assert diagnostics.get('frames_unmatched') == '0'
+    assert diagnostics.get(f'frames_without_{motion_input}') == '0'
     assert [box is not None for box in over_dds] == [box is not None for box in offline.boxes]
     for dds_box, core_box in zip(over_dds, offline.boxes, strict=True):
         if core_box is not None:
             np.testing.assert_allclose(dds_box, core_box, atol=1e-3)
+
+
+def test_hand_chain_with_skin_node_in_separate_processes(tmp_path) -> None:
+    """bag_play -> background_node + skin_node -> tracker_node (target hand), both masks matched by stamp.
+
+    Started with no box, the nodes must publish what the offline command computes on the same
+    frames, and follow the hand.
+    """
+    bag = REPO / 'bags' / 'hand_cluttered'
+    frames = list(read_frames(bag))
+    env = environment()
+    stages = [
+        NodeProcess(
+            f'human_tracker.ros.{stage}', node_arguments(COMPRESSED_CAMERA_TOPIC, True), env, tmp_path / f'{stage}.log'
+        )
+        for stage in ('background_node', 'skin_node')
+    ]
+    tracker_args = node_arguments(COMPRESSED_CAMERA_TOPIC, True, motion_input='foreground')
+    tracker_args += ['-p', 'target:=hand', '-p', 'skin_input:=true', '-p', 'match_timeout:=5.0']
+    tracker_args += ['-p', 'max_pending:=500']
+    tracker = NodeProcess('human_tracker.ros.tracker_node', tracker_args, env, tmp_path / 'tracker.log')
+    collector = replay_and_collect(
+        [*stages, tracker], bag, COMPRESSED_CAMERA_TOPIC, tmp_path, len(frames), diagnostics_of='/tracker_node'
+    )
+    diagnostics = collector.diagnostics.get('/tracker_node', {})
+    assert diagnostics.get('frames_processed') == str(len(frames))
+    assert diagnostics.get('frames_without_foreground') == diagnostics.get('frames_without_skin') == '0'
+    offline = track_sequence(bag, tmp_path / 'offline', TrackOptions(target='hand', video=False, progress=False))
+    core = read_poses(tmp_path / 'offline' / 'poses.csv')
+    hand = open_hand()
+    over_dds = []
+    for frame in frames:
+        contour = collector.contours.get(frame.stamp_ns)
+        over_dds.append(None if contour is None else box_from_state(fit_state(hand.points, contour), hand))
+    summary = summarise(over_dds, [f.ground_truth for f in frames])
+    print(f'hand over DDS: {summary}; offline: {offline["precision_20px"]}')
+    assert summary['precision_20px'] >= 0.9
+    assert [box is not None for box in over_dds] == [box is not None for box in core]
+    for dds_box, core_box in zip(over_dds, core, strict=True):
+        if core_box is not None:
+            np.testing.assert_allclose(dds_box, core_box, atol=0.05)  # poses.csv rounds to 0.01 px
+
+
+def test_pipeline_follows_a_hand_with_the_skin_stage_in_process(tmp_path) -> None:
+    """target:=hand turns the pipeline's skin stage on; the hand is found and followed."""
+    bag = REPO / 'bags' / 'hand_wave'
+    frames = list(read_frames(bag))
+    args = node_arguments(COMPRESSED_CAMERA_TOPIC, True) + ['-p', 'target:=hand']
+    pipeline = NodeProcess('human_tracker.ros.pipeline', args, environment(), tmp_path / 'pipeline.log')
+    collector = replay_and_collect(pipeline, bag, COMPRESSED_CAMERA_TOPIC, tmp_path, len(frames))
+    assert 'ready: skin segmentation' in pipeline.output()
+    hand = open_hand()
+    boxes = [
+        None if (c := collector.contours.get(f.stamp_ns)) is None else box_from_state(fit_state(hand.points, c), hand)
+        for f in frames
+    ]
+    summary = summarise(boxes, [f.ground_truth for f in frames])
+    print(f'pipeline, target hand: {summary}')
+    assert summary['precision_20px'] >= 0.9
 
 
 def _set(client: AsyncParameterClient, node: Node, name: str, value) -> SetParametersResult:

@@ -12,6 +12,7 @@ from human_tracker.vision.templates import (
     head_and_shoulders,
     load_template,
     make_template,
+    open_hand,
     template_from_control_points,
     transform_points,
 )
@@ -84,3 +85,14 @@ def test_load_template_from_file_and_errors(tmp_path) -> None:
         load_template(path)
     with pytest.raises(ValueError, match='unknown target'):
         make_template('elbow')
+
+
+def test_hand_template_is_open_with_outward_normals() -> None:
+    hand = make_template('hand', 64)
+    assert hand.name == 'hand' and not hand.closed and hand.num_points == 64
+    assert hand.points[:, 0].max() - hand.points[:, 0].min() == pytest.approx(1.0, abs=0.05)  # one unit wide
+    # Outwards: up at the middle fingertip, left at the thumb's tip, right at the little finger.
+    assert hand.normals[np.argmin(hand.points[:, 1]), 1] < -0.7
+    assert hand.normals[np.argmin(hand.points[:, 0]), 0] < -0.7
+    assert hand.normals[np.argmax(hand.points[:, 0]), 0] > 0.7
+    np.testing.assert_allclose(open_hand(64).points, hand.points)

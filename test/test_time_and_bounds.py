@@ -74,7 +74,7 @@ def test_frames_waiting_for_masks_that_never_come_stay_bounded_and_counted() -> 
         rclpy.try_shutdown()
     assert most_pending <= 5
     assert node.pending == type(node.pending)()
-    assert node.counters.processed == 40 and node.unmatched == 40
+    assert node.counters.processed == 40 and node.unmatched == {'foreground': 40}
 
 
 def test_zero_and_negative_time_steps_do_not_break_the_core() -> None:

@@ -1,9 +1,10 @@
 """``pipeline``: every stage in one process, frames handed over in memory.
 
 A camera subscriber converts each image once and passes the array to the motion stage
-(``motion_cue``: background subtraction, optical flow, or none) and then, with that stage's
-mask, to the tracker. The stages publish the same topics as the separate nodes, under the
-same parameters; only the transport between them is gone.
+(``motion_cue``: background subtraction, optical flow, or none), to the skin stage
+(``skin_cue``: on for the hand by default) and then, with their masks, to the tracker. The
+stages publish the same topics as the separate nodes, under the same parameters; only the
+transport between them is gone.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from rclpy.node import Node
 from human_tracker.ros.background_node import BackgroundNode
 from human_tracker.ros.common import declare
 from human_tracker.ros.optical_flow_node import OpticalFlowNode
+from human_tracker.ros.skin_node import SkinNode
 from human_tracker.ros.stage import ImageStage, run_nodes
 from human_tracker.ros.tracker_node import TrackerNode
 
@@ -26,21 +28,25 @@ MOTION_CUES = {'none': None, 'background': BackgroundNode, 'flow': OpticalFlowNo
 
 
 class CameraSubscriber(ImageStage):
-    """Subscribes the camera and runs the motion stage, then the tracker, on each frame."""
+    """Subscribes the camera and runs the motion and skin stages, then the tracker, on each frame."""
 
-    def __init__(self, motion_stage: ImageStage | None, tracker: TrackerNode, **kwargs: Any) -> None:
+    def __init__(
+        self, motion_stage: ImageStage | None, skin_stage: SkinNode | None, tracker: TrackerNode, **kwargs: Any
+    ) -> None:
         super().__init__('camera_subscriber', **kwargs)
         self.motion_stage = motion_stage
+        self.skin_stage = skin_stage
         self.tracker = tracker
 
     def handle_frame(self, image: np.ndarray, header: Any, **cues: Any) -> object:
         mask = None if self.motion_stage is None else self.motion_stage.process_frame(image, header)
+        skin = None if self.skin_stage is None else self.skin_stage.process_frame(image, header)
         self.counters.processed += 1
-        return self.tracker.process_frame(image, header, motion=mask)
+        return self.tracker.process_frame(image, header, motion=mask, skin=skin)
 
 
 def build_pipeline() -> list[Node]:
-    """The pipeline's nodes: [camera subscriber, motion stage (if any), tracker]."""
+    """The pipeline's nodes: [selector, camera subscriber, motion and skin stages (if any), tracker]."""
     selector = Node('pipeline')
     cue = declare(
         selector,
@@ -55,8 +61,17 @@ def build_pipeline() -> list[Node]:
     stage_type = MOTION_CUES[cue]
     motion_stage = None if stage_type is None else stage_type(subscribe_image=False)
     tracker = TrackerNode(subscribe_image=False)
-    camera = CameraSubscriber(motion_stage, tracker)
-    return [selector, camera, *([motion_stage] if motion_stage is not None else []), tracker]
+    use_skin = declare(
+        selector,
+        'skin_cue',
+        tracker.template.name == 'hand',
+        'Segment skin in process (§3.2); default: on when the tracker follows a hand.',
+        read_only=True,
+    )
+    skin_stage = SkinNode(subscribe_image=False) if use_skin else None
+    camera = CameraSubscriber(motion_stage, skin_stage, tracker)
+    stages = [stage for stage in (motion_stage, skin_stage) if stage is not None]
+    return [selector, camera, *stages, tracker]
 
 
 def main(args: list[str] | None = None) -> int:

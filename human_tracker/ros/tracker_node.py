@@ -1,10 +1,11 @@
 """``tracker_node``: the particle-filter contour tracker as a ROS 2 node.
 
 Subscribes ``image`` (or ``image/compressed``), ``camera_info`` and, with
-``motion_input: foreground`` or ``motion``, that mask topic, matched to the image by exact
-stamp. Publishes ``pose`` (PoseWithCovarianceStamped, metres, optical frame) and ``contour``
-(PolygonStamped, pixels) while the target is tracked, ``debug_image`` (only when subscribed)
-and ``/diagnostics``. Every output copies the header of the image it was computed from.
+``motion_input: foreground`` or ``motion``, that mask topic, and with ``skin_input: true``
+the ``skin`` labels, each matched to the image by exact stamp. Publishes ``pose``
+(PoseWithCovarianceStamped, metres, optical frame) and ``contour`` (PolygonStamped, pixels)
+while the target is tracked, ``debug_image`` (only when subscribed) and ``/diagnostics``.
+Every output copies the header of the image it was computed from.
 """
 
 from __future__ import annotations
@@ -21,10 +22,10 @@ from sensor_msgs.msg import Image
 
 from human_tracker.drawing import annotate
 from human_tracker.ros.common import RESULT_QOS, declare
-from human_tracker.ros.image_conversion import ImageConversionError, array_to_image, image_to_array, to_mono8
+from human_tracker.ros.image_conversion import ImageConversionError, array_to_image, image_to_array
 from human_tracker.ros.stage import DEFERRED, ImageStage, ParameterSpec, spin_node, stamp_ns
 from human_tracker.vision.camera import metric_positions
-from human_tracker.vision.target import TargetParameters, TargetResult, TargetTracker
+from human_tracker.vision.target import TargetParameters, TargetResult, TargetTracker, parameters_for
 from human_tracker.vision.templates import make_template
 from human_tracker.vision.tracker import TrackerParameters
 
@@ -47,6 +48,10 @@ FILTER_PARAMETERS = (
     ParameterSpec('velocity_damping', 'a of the AR(2) dynamics (§2.2): 0 random walk, 1 constant velocity.', 0.0, 1.0),
     ParameterSpec('process_noise', 'W (§2.2): std of x, y (px), s (fraction), θ (rad) per frame.'),
     ParameterSpec('initial_spread', 'Σ (§2.5): std of the initial cloud: x, y (px), s (fraction), θ (rad).'),
+    ParameterSpec(
+        'interior_weight', 'w (§3.2, > 1): non-skin inside the contour costs 1/w of skin outside.', 1.0001, 1e6
+    ),
+    ParameterSpec('colour_depth', 'How far inside / outside the contour skin is sampled, template units.', 0.001, 1.0),
     ParameterSpec('min_scale', 'Smallest scale s: reference region width in pixels.', 1.0, 1e5),
     ParameterSpec('max_scale', 'Largest scale s: reference region width in pixels.', 1.0, 1e5),
     ParameterSpec('seed', 'Seed of the particle filter (replays are reproducible).', 0, 2**31 - 1, runtime=False),
@@ -57,6 +62,12 @@ TARGET_PARAMETERS = (
         'motion_mode',
         'How motion enters the likelihood: off (eqs. 1-2), weighted (eqs. 3-4) or mask (moving edges only).',
     ),
+    ParameterSpec(
+        'colour_mode',
+        'How skin enters: off, weighted (colour term γ of §3.2) or mask (edges near skin regions only).',
+    ),
+    ParameterSpec('skin_margin', 'Dilation (pixels) of skin regions in the mask colour mode.', 0, 100),
+    ParameterSpec('init_region', 'Region X_0 comes from: motion or skin.'),
     ParameterSpec('init_method', 'Initialisation from the moving region: scan (§2.5.2, head) or moments (§2.5.1).'),
     ParameterSpec('upright_angle', 'θ_upright of the scan initialisation, rad.', -3.2, 3.2),
     ParameterSpec('min_blob_area', 'Smallest moving region (pixels) that can start or restart a track.', 1, 10_000_000),
@@ -76,6 +87,7 @@ TARGET_PARAMETERS = (
         1.0,
     ),
     ParameterSpec('hypothesis_samples', 'States scored around a motion hypothesis.', 1, 100000),
+    ParameterSpec('hypothesis_blobs', 'With moments, how many of the largest regions give an X_0.', 1, 100),
     ParameterSpec('lost_confidence', 'Fraction of contour points on edges below which a frame is weak.', 0.0, 1.0),
     ParameterSpec(
         'lost_motion_support',
@@ -84,12 +96,15 @@ TARGET_PARAMETERS = (
         1.0,
     ),
     ParameterSpec('lost_frames', 'Consecutive weak frames after which the target is lost.', 1, 100000),
+    ParameterSpec('colour_edges', 'Detect edges on the colour image (strongest channel), not on its intensity.'),
     ParameterSpec('edge_blur_sigma', 'Gaussian pre-filter of the edge detector, pixels.', 0.0, 20.0),
     ParameterSpec('canny_low', 'Canny low hysteresis threshold.', 0.0, 10000.0),
     ParameterSpec('canny_high', 'Canny high hysteresis threshold.', 0.0, 10000.0),
 )
 _UNKNOWN_VARIANCE = 1e3  # roll and pitch are not observed: a large variance says so
 _MOTION_INPUTS = ('none', 'foreground', 'motion')
+# Typical adult widths of the reference regions, metres: head (ear to ear) and open hand.
+_TARGET_WIDTHS = {'head': 0.16, 'hand': 0.18}
 
 
 class TrackerNode(ImageStage):
@@ -97,7 +112,9 @@ class TrackerNode(ImageStage):
 
     def __init__(self, *, subscribe_image: bool = True, **kwargs: Any) -> None:
         super().__init__('tracker_node', subscribe_image=subscribe_image, **kwargs)
-        target = declare(self, 'target', 'head', 'What to track: head (head-and-shoulders template).', read_only=True)
+        target = declare(
+            self, 'target', 'head', 'What to track: head (head-and-shoulders) or hand (open hand).', read_only=True
+        )
         template_file = declare(
             self, 'template_file', '', 'JSON template replacing the built-in one (empty: built-in).', read_only=True
         )
@@ -106,7 +123,7 @@ class TrackerNode(ImageStage):
         )
         self.template = make_template(target, num_points, template_file)
         filter_parameters = self.bind_parameters(TrackerParameters(), FILTER_PARAMETERS, self._apply_filter)
-        target_parameters = self.bind_parameters(TargetParameters(), TARGET_PARAMETERS, self._apply_target)
+        target_parameters = self.bind_parameters(parameters_for(target), TARGET_PARAMETERS, self._apply_target)
         self.tracker = TargetTracker(self.template, filter_parameters, target_parameters)
         box = [
             float(v)
@@ -124,7 +141,7 @@ class TrackerNode(ImageStage):
         self.target_width = declare(
             self,
             'target_width',
-            0.16,
+            _TARGET_WIDTHS.get(target, 0.16),
             'Physical width of the head (or hand), metres: depth from scale.',
             low=0.01,
             high=2.0,
@@ -138,11 +155,14 @@ class TrackerNode(ImageStage):
         )
         if self.motion_input not in _MOTION_INPUTS:
             raise ValueError(f'motion_input must be one of {", ".join(_MOTION_INPUTS)}, got {self.motion_input!r}')
+        skin_input = declare(
+            self, 'skin_input', False, 'Subscribe the skin labels of skin_node (§3.2).', read_only=True
+        )
         self.match_timeout = declare(
             self,
             'match_timeout',
             0.25,
-            'Seconds a frame waits for its motion mask before it is tracked without.',
+            'Seconds a frame waits for its masks (motion, skin) before it is tracked without.',
             low=0.0,
             high=10.0,
         )
@@ -161,34 +181,38 @@ class TrackerNode(ImageStage):
 
         self.last_tracked_ns = -1
         self.last_result: TargetResult | None = None
-        self.unmatched = 0
         self.pending: deque[tuple[int, float, np.ndarray, Any]] = deque()
-        self.masks: OrderedDict[int, np.ndarray] = OrderedDict()
 
         self.pose_pub = self.create_publisher(PoseWithCovarianceStamped, 'pose', RESULT_QOS)
         self.contour_pub = self.create_publisher(PolygonStamped, 'contour', RESULT_QOS)
         self.debug_pub = self.create_publisher(Image, 'debug_image', RESULT_QOS)
         self.use_camera_info()
-        if not subscribe_image:
-            self.motion_input = 'none'  # a pipeline hands the masks over with the frames
-        if self.motion_input != 'none':
-            # Masks queue as deep as the frames that may wait for them, so none is dropped.
-            mask_qos = QoSProfile(
-                depth=4 * self.max_pending, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST
-            )
-            self.create_subscription(Image, self.motion_input, self._on_mask, mask_qos)
+        # The mask topics each frame waits for; a pipeline hands the masks over with the frames.
+        topics = [self.motion_input] if self.motion_input != 'none' else []
+        topics += ['skin'] if skin_input else []
+        self.mask_topics = topics if subscribe_image else []
+        self.masks: dict[str, OrderedDict[int, np.ndarray]] = {topic: OrderedDict() for topic in self.mask_topics}
+        self.unmatched = dict.fromkeys(self.mask_topics, 0)
+        # Masks queue as deep as the frames that may wait for them, so none is dropped.
+        mask_qos = QoSProfile(
+            depth=4 * self.max_pending, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST
+        )
+        for topic in self.mask_topics:
+            self.create_subscription(Image, topic, lambda msg, topic=topic: self._on_mask(topic, msg), mask_qos)
+        if self.mask_topics:
             self.create_timer(0.02, self._drain, clock=self.steady_clock)
         self._warm_up()
         self.get_logger().info(
             f'ready: tracking {target} with {filter_parameters.num_particles} particles, '
-            f'{self.template.num_points} points, motion input {self.motion_input}'
+            f'{self.template.num_points} points, mask inputs: {", ".join(self.mask_topics) or "none"}'
         )
 
     def _warm_up(self) -> None:
         """Run the compiled kernels once so the first real frame is not slowed by JIT."""
         probe = TargetTracker(self.template, TrackerParameters(num_particles=2, min_scale=1.0))
         probe.filter.initialise(np.array([16.0, 16.0, 8.0, 0.0]))
-        probe.process(np.zeros((32, 32), dtype=np.uint8), np.zeros((32, 32), dtype=np.uint8))
+        blank = np.zeros((32, 32), dtype=np.uint8)
+        probe.process(np.zeros((32, 32, 3), dtype=np.uint8), blank, blank)
 
     def _apply_filter(self, parameters: TrackerParameters) -> None:
         self.tracker.filter.parameters = parameters
@@ -201,50 +225,59 @@ class TrackerNode(ImageStage):
         self.tracker.reset()
         self.counters.skipped += len(self.pending)
         self.pending.clear()
-        self.masks.clear()
+        for masks in self.masks.values():
+            masks.clear()
         self.last_tracked_ns = -1
 
-    def _on_mask(self, msg: Image) -> None:
+    def _on_mask(self, topic: str, msg: Image) -> None:
         try:
             mask = image_to_array(msg)
         except ImageConversionError as err:
-            self.get_logger().warn(f'{self.motion_input} mask rejected: {err}', throttle_duration_sec=5.0)
+            self.get_logger().warn(f'{topic} mask rejected: {err}', throttle_duration_sec=5.0)
             return
-        self.masks[stamp_ns(msg.header)] = mask if mask.ndim == 2 else mask[..., 0]
-        while len(self.masks) > 4 * self.max_pending:
-            self.masks.popitem(last=False)
+        masks = self.masks[topic]
+        masks[stamp_ns(msg.header)] = mask if mask.ndim == 2 else mask[..., 0]
+        while len(masks) > 4 * self.max_pending:
+            masks.popitem(last=False)
         self._drain()
 
     def _drain(self) -> None:
-        """Track held frames in order, each with its mask, or without once it waited too long."""
+        """Track held frames in order, each with its masks, or without those that waited too long."""
         now = time.monotonic()
         while self.pending:
             stamp, arrived, image, header = self.pending[0]
-            mask = self.masks.pop(stamp, None)
-            if mask is None and now - arrived < self.match_timeout and len(self.pending) <= self.max_pending:
+            complete = all(stamp in self.masks[topic] for topic in self.mask_topics)
+            if not complete and now - arrived < self.match_timeout and len(self.pending) <= self.max_pending:
                 return
             self.pending.popleft()
-            if mask is None:
-                self.unmatched += 1
+            found = {topic: self.masks[topic].pop(stamp, None) for topic in self.mask_topics}
+            for topic in (t for t, mask in found.items() if mask is None):
+                self.unmatched[topic] += 1
                 self.get_logger().warn(
-                    f'frame tracked without its {self.motion_input} mask (none within {self.match_timeout} s)',
+                    f'frame tracked without its {topic} mask (none within {self.match_timeout} s)',
                     throttle_duration_sec=5.0,
                 )
+            motion = found.get(self.motion_input)
             start = time.perf_counter()
-            self.guarded(self.track, image, header, mask)
+            self.guarded(self.track, image, header, motion, found.get('skin'))
             self.timer_stats.took(time.perf_counter() - start)
-        for stale in [s for s in self.masks if s <= self.last_tracked_ns]:
-            del self.masks[stale]
+        for masks in self.masks.values():
+            for stale in [s for s in masks if s <= self.last_tracked_ns]:
+                del masks[stale]
 
-    def handle_frame(self, image: np.ndarray, header: Any, motion: np.ndarray | None = None) -> object:
-        """Track on one frame: now when its mask is given or none is expected, else once it arrives."""
-        if motion is None and self.motion_input != 'none':
+    def handle_frame(
+        self, image: np.ndarray, header: Any, motion: np.ndarray | None = None, skin: np.ndarray | None = None
+    ) -> object:
+        """Track on one frame: now when no mask is expected (or they are given), else once they arrive."""
+        if self.mask_topics:
             self.pending.append((stamp_ns(header), time.monotonic(), image, header))
             self._drain()
             return DEFERRED
-        return self.track(image, header, motion)
+        return self.track(image, header, motion, skin)
 
-    def track(self, image: np.ndarray, header: Any, motion: np.ndarray | None) -> TargetResult | None:
+    def track(
+        self, image: np.ndarray, header: Any, motion: np.ndarray | None, skin: np.ndarray | None = None
+    ) -> TargetResult | None:
         """Run the tracker on one frame and publish what it found under ``header``."""
         stamp = stamp_ns(header)
         if self.last_tracked_ns >= 0 and stamp - self.last_tracked_ns > self.max_gap * 1e9:
@@ -255,20 +288,26 @@ class TrackerNode(ImageStage):
                 throttle_duration_sec=5.0,
             )
         self.last_tracked_ns = stamp
-        gray = to_mono8(image)
-        if motion is not None and motion.shape != gray.shape:
+        size = image.shape[:2]
+        if motion is not None and motion.shape != size:
             self.counters.reject('mask_size')
             self.get_logger().warn(
-                f'mask {motion.shape} does not match image {gray.shape}: tracking without it', throttle_duration_sec=5.0
+                f'mask {motion.shape} does not match image {size}: tracking without it', throttle_duration_sec=5.0
             )
             motion = None
+        if skin is not None and skin.shape != size:
+            self.counters.reject('skin_size')
+            self.get_logger().warn(
+                f'skin labels {skin.shape} do not match image {size}: tracking without them', throttle_duration_sec=5.0
+            )
+            skin = None
         if self.init_box is not None and not self.tracker.filter.initialised:
             self.tracker.initialise_from_box(self.init_box)
-        result = self.tracker.process(gray, motion)
+        result = self.tracker.process(image, motion, skin)
         self.last_result = result
         self.counters.processed += 1
         if result.tracking:
-            self._publish(result, header, gray.shape)
+            self._publish(result, header, size)
         if self.debug_pub.get_subscription_count() > 0:
             estimate = result.estimate
             label = (
@@ -282,7 +321,7 @@ class TrackerNode(ImageStage):
                 box=None if estimate is None else estimate.box,
                 particles=self.tracker.filter.particles,
                 label=label,
-                motion=motion,
+                motion=motion if motion is not None else skin,
             )
             self.debug_pub.publish(array_to_image(debug, 'bgr8', header))
         return result
@@ -313,7 +352,7 @@ class TrackerNode(ImageStage):
     def diagnostics_state(self) -> tuple[str, dict[str, Any]]:
         extra: dict[str, Any] = {
             'particles': self.tracker.filter.parameters.num_particles,
-            'frames_unmatched': self.unmatched,
+            **{f'frames_without_{topic}': count for topic, count in self.unmatched.items()},
             'frames_pending': len(self.pending),
         }
         result = self.last_result

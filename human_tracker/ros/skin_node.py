@@ -1,0 +1,135 @@
+"""``skin_node``: skin colour segmentation (§3.2) as a ROS 2 node.
+
+Subscribes ``image`` (colour); publishes ``skin`` (mono8, 255 on pixels labelled skin). With
+``adaptation_rate`` > 0 it also subscribes the tracker's ``contour`` and adapts the skin
+classes to the skin inside it, never further than ``max_drift`` from the learnt classes;
+``~/reset`` (std_srvs/Trigger) forgets the adaptation.
+"""
+
+from __future__ import annotations
+
+import sys
+from typing import Any
+
+import cv2
+import numpy as np
+from geometry_msgs.msg import PolygonStamped
+from sensor_msgs.msg import Image
+from std_srvs.srv import Trigger
+
+from human_tracker.ros.common import RESULT_QOS, declare
+from human_tracker.ros.image_conversion import array_to_image
+from human_tracker.ros.stage import ImageStage, ParameterSpec, spin_node, stamp_ns
+from human_tracker.vision.skin import SkinModel, SkinParameters, SkinSegmenter, default_skin_model
+
+__all__ = ['SKIN_PARAMETERS', 'SkinNode', 'main']
+
+SKIN_PARAMETERS = (
+    ParameterSpec('cell_size', 'Side of the square cells of the first partition, pixels.', 2, 256),
+    ParameterSpec('min_region_cells', 'Smallest merged region of candidate cells that is kept, cells.', 1, 100000),
+    ParameterSpec('histogram_bins', 'Bins of each local I1, I2, I3 histogram.', 4, 1024),
+    ParameterSpec('histogram_smoothing', 'Gaussian smoothing of the local histograms, bins.', 0.0, 50.0),
+    ParameterSpec('peak_fraction', 'Height (fraction of the highest) a principal histogram peak must reach.', 0.0, 1.0),
+    ParameterSpec('support_fraction', 'Height (fraction of its peak) down to which a mode extends.', 0.0, 0.99),
+    ParameterSpec('max_peaks', 'Largest number of principal peaks per histogram.', 1, 8),
+    ParameterSpec('min_cluster_pixels', 'Clusters with fewer pixels are not skin.', 1, 10_000_000),
+    ParameterSpec('variance_ratio', "Largest ratio of a cluster's (I2, I3) variance to its class's.", 0.01, 1000.0),
+    ParameterSpec('match_scale', "Multiplies the model's match distance (> 1: more permissive).", 0.01, 100.0),
+)
+
+
+class SkinNode(ImageStage):
+    """Labels skin pixels of each colour frame and publishes the label image."""
+
+    def __init__(self, *, subscribe_image: bool = True, **kwargs: Any) -> None:
+        super().__init__('skin_node', subscribe_image=subscribe_image, **kwargs)
+        model_file = declare(
+            self,
+            'model_file',
+            '',
+            'Skin classes written by `human_tracker train-skin` (empty: the shipped model).',
+            read_only=True,
+        )
+        model = SkinModel.load(model_file) if model_file else default_skin_model()
+        parameters = self.bind_parameters(SkinParameters(), SKIN_PARAMETERS, self._apply)
+        rate = declare(
+            self,
+            'adaptation_rate',
+            0.0,
+            'Weight of the tracked region when the skin classes adapt, per frame; 0: no adaptation.',
+            low=0.0,
+            high=1.0,
+            read_only=True,
+        )
+        drift = declare(
+            self,
+            'max_drift',
+            1.5,
+            'Largest Mahalanobis distance an adapted class may move from the learnt one.',
+            low=0.0,
+            high=100.0,
+            read_only=True,
+        )
+        self.segmenter = SkinSegmenter(model, parameters, rate, drift)
+        self.grey_frames = 0
+        self.adaptations = 0
+        self.contour: tuple[int, np.ndarray] | None = None
+        self.skin_pub = self.create_publisher(Image, 'skin', RESULT_QOS)
+        if rate > 0:
+            self.create_subscription(PolygonStamped, 'contour', self._on_contour, RESULT_QOS)
+        self.create_service(Trigger, '~/reset', self._on_reset)
+        self.get_logger().info(
+            f'ready: skin segmentation, {len(model.classes)} classes'
+            + (f', adapting at {rate} from contour' if rate > 0 else '')
+        )
+
+    def _apply(self, parameters: SkinParameters) -> None:
+        self.segmenter.parameters = parameters
+
+    def reset_state(self) -> None:
+        self.segmenter.reset()
+        self.contour = None
+
+    def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        self.reset_state()
+        response.success = True
+        response.message = 'skin classes back to the learnt ones'
+        self.get_logger().info(response.message)
+        return response
+
+    def _on_contour(self, msg: PolygonStamped) -> None:
+        points = np.array([[p.x, p.y] for p in msg.polygon.points], dtype=np.float64)
+        if points.shape[0] >= 3 and np.isfinite(points).all():
+            self.contour = (stamp_ns(msg.header), points)
+
+    def handle_frame(self, image: np.ndarray, header: Any) -> np.ndarray:
+        """Skin labels of one frame, published under ``header``."""
+        if np.array_equal(image[..., 0], image[..., 1]) and np.array_equal(image[..., 1], image[..., 2]):
+            # A grey-level camera has no chromaticity: say so, and publish empty labels so
+            # that a tracker waiting for this frame's skin labels is not held up.
+            self.grey_frames += 1
+            self.get_logger().warn('grey-level image: no skin can be found without colour', throttle_duration_sec=10.0)
+            skin = np.zeros(image.shape[:2], dtype=np.uint8)
+        else:
+            skin = self.segmenter.segment(image)
+            if self.contour is not None:
+                # The latest contour (a frame or two old) marks where the target is.
+                region = np.zeros(image.shape[:2], dtype=np.uint8)
+                cv2.fillPoly(region, [np.round(self.contour[1]).astype(np.int32)], 255)
+                self.adaptations += int(self.segmenter.adapt(image, region, skin))
+        self.counters.processed += 1
+        self.skin_pub.publish(array_to_image(skin, 'mono8', header))
+        return skin
+
+    def diagnostics_state(self) -> tuple[str, dict[str, Any]]:
+        state = 'GREY_INPUT' if self.grey_frames and self.grey_frames == self.counters.processed else 'OK'
+        return state, {'frames_grey': self.grey_frames, 'adaptations': self.adaptations}
+
+
+def main(args: list[str] | None = None) -> int:
+    """Entry point of ``ros2 run human_tracker skin_node``; returns the exit code."""
+    return spin_node(SkinNode, args)
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,189 @@
+"""Skin segmentation of §3.2: I1I2I3, cells, merging, histogram modes, classes; hand-computed values."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from conftest import REPO
+
+from human_tracker.cli import main
+from human_tracker.io.skin_samples import read_skin_samples
+from human_tracker.scenes.generator import SCENES, render_scene
+from human_tracker.vision.skin import (
+    SkinClass,
+    SkinModel,
+    SkinSegmenter,
+    candidate_cells,
+    default_skin_model,
+    histogram_modes,
+    merge_cells,
+    ohta,
+    segment_skin,
+    train_skin_model,
+)
+
+SKIN_SAMPLES = REPO.parent / 'shared' / 'data' / 'skin' / 'Skin_NonSkin.txt'
+SKIN_BGR = (95, 135, 200)  # I2 = 52.5, I3 = -6.25: inside the learnt classes
+
+
+def _one_class(mean: tuple[float, float], variance: float = 1.0, match: float = 1.0) -> SkinModel:
+    return SkinModel((SkinClass(np.array(mean, dtype=float), np.eye(2) * variance),), match)
+
+
+def test_ohta_components_by_hand() -> None:
+    # B, G, R = 10, 20, 40: I1 = 70 / 3, I2 = (40 - 10) / 2 = 15, I3 = (40 - 40 - 10) / 4 = -2.5.
+    np.testing.assert_allclose(ohta(np.array([[10, 20, 40]], dtype=np.uint8))[0], [70 / 3, 15.0, -2.5], rtol=1e-6)
+    grey = ohta(np.full((2, 2, 3), 128, dtype=np.uint8))
+    np.testing.assert_allclose(grey[..., 1:], 0.0)  # a grey level has no chromaticity
+    with pytest.raises(ValueError, match='B, G, R'):
+        ohta(np.zeros((4, 4), dtype=np.uint8))
+
+
+def test_mahalanobis_distance_by_hand() -> None:
+    skin_class = SkinClass(np.array([0.0, 0.0]), np.diag([4.0, 1.0]))
+    assert skin_class.distance(np.array([2.0, 1.0])) == pytest.approx(np.sqrt(2.0))
+    model = SkinModel((skin_class, SkinClass(np.array([10.0, 0.0]), np.eye(2))), 1.0)
+    assert model.distance(np.array([9.0, 0.0])) == pytest.approx(1.0)
+    assert int(model.nearest(np.array([9.0, 0.0]))) == 1
+
+
+def test_candidate_cells_use_the_cell_mean() -> None:
+    chroma = np.zeros((4, 6, 2))
+    chroma[:2, :2] = (50.0, -5.0)  # cell (0, 0): skin
+    chroma[2:, 4:] = [[[49.0, -5.0], [51.0, -5.0]]] * 2  # cell (1, 2): its pixels average to skin
+    cells = candidate_cells(chroma, _one_class((50.0, -5.0)), cell_size=2)
+    np.testing.assert_array_equal(cells, [[True, False, False], [False, False, True]])
+    # A partial last column of cells is ignored: 7 columns still make 3 cells.
+    assert candidate_cells(np.zeros((4, 7, 2)), _one_class((0.0, 0.0)), cell_size=2).shape == (2, 3)
+
+
+def test_merge_cells_through_the_adjacency_graph() -> None:
+    candidates = np.array(
+        [
+            [1, 1, 0, 0, 0],
+            [0, 0, 1, 0, 0],  # touches the first group diagonally: same region (8-connected)
+            [0, 0, 0, 0, 1],
+            [1, 0, 0, 0, 1],
+        ],
+        dtype=bool,
+    )
+    labels, count = merge_cells(candidates)
+    assert count == 3
+    assert labels[0, 0] == labels[0, 1] == labels[1, 2] != 0
+    assert labels[2, 4] == labels[3, 4] not in (0, labels[0, 0])
+    labels, count = merge_cells(candidates, min_region_cells=2)  # the single cell at (3, 0) goes
+    assert count == 2 and labels[3, 0] == 0
+
+
+def test_histogram_modes_by_hand() -> None:
+    # Peaks at bins 2 (20) and 7 (10); each mode runs down its slopes to 10 % of its peak.
+    modes = histogram_modes(np.array([0, 10, 20, 10, 0, 0, 5, 10, 5, 0]), smoothing=0)
+    np.testing.assert_array_equal(modes, [3, 0, 0, 0, 3, 3, 1, 1, 1, 3])
+    # A valley stops a mode where the histogram rises again: bin 3 starts the second mode.
+    np.testing.assert_array_equal(histogram_modes(np.array([0, 10, 4, 8, 0]), smoothing=0), [3, 0, 0, 1, 3])
+    # A peak below peak_fraction of the highest is not principal.
+    modes = histogram_modes(np.array([0, 100, 0, 5, 0]), smoothing=0, peak_fraction=0.1)
+    np.testing.assert_array_equal(modes, [3, 0, 3, 3, 3])
+
+
+def _picture() -> tuple[np.ndarray, np.ndarray]:
+    """Blue wall, a flat skin square, and a noisy square whose mean colour is skin."""
+    rng = np.random.default_rng(0)
+    image = np.zeros((120, 160, 3), dtype=np.uint8)
+    image[:] = (200, 80, 40)
+    image[16:64, 16:64] = SKIN_BGR
+    noisy = np.array(SKIN_BGR, dtype=float) + rng.uniform(-60, 60, size=(48, 48, 3))
+    image[56:104, 96:144] = np.clip(noisy, 0, 255).astype(np.uint8)
+    truth = np.zeros(image.shape[:2], dtype=bool)
+    truth[16:64, 16:64] = True
+    return image, truth
+
+
+def test_segmentation_keeps_flat_skin_and_drops_a_textured_region() -> None:
+    image, truth = _picture()
+    mask = segment_skin(image, default_skin_model()) > 0
+    assert mask[truth].mean() > 0.95  # the skin square, to its borders (the grown cells)
+    # The textured square's cells average to skin, but its variance is no skin class's.
+    assert mask[56:104, 96:144].mean() < 0.05
+    assert mask[~truth].mean() < 0.01
+
+
+def test_segmentation_recall_on_the_synthetic_hand_scene() -> None:
+    frames = list(render_scene(SCENES['hand_wave']))[::30]
+    model = default_skin_model()
+    masks = [segment_skin(f.image, model) > 0 for f in frames]
+    hits = sum(np.count_nonzero(m & f.skin) for m, f in zip(masks, frames, strict=True))
+    skin = sum(np.count_nonzero(f.skin) for f in frames)
+    labelled = sum(np.count_nonzero(m) for m in masks)
+    # The face and the hand are found; the scene's wooden furniture is skin-coloured by design,
+    # so precision is low (shape, not colour, tells the hand apart).
+    print(f'hand_wave skin labels: recall {hits / skin:.3f}, precision {hits / labelled:.3f}')
+    assert hits / skin > 0.85
+
+
+def test_adaptation_moves_towards_the_target_within_bounds() -> None:
+    prior = _one_class((50.0, -5.0), variance=4.0, match=3.0)
+    segmenter = SkinSegmenter(prior, adaptation_rate=0.5, max_drift=1.5)
+    image = np.zeros((20, 20, 3), dtype=np.uint8)
+    image[:] = (90, 130, 198)  # I2 = (198 - 90) / 2 = 54, I3 = (260 - 198 - 90) / 4 = -7
+    region = np.ones((20, 20), dtype=np.uint8)
+    assert segmenter.adapt(image, region, region)
+    # Halfway, (52, -6): Mahalanobis sqrt((2² + 1²) / 4) = 1.12 from the prior, within max_drift.
+    np.testing.assert_allclose(segmenter.model.classes[0].mean, [52.0, -6.0], atol=1e-4)
+    image[:] = (40, 130, 200)  # I2 = 80: far from every prior class, refused
+    assert not segmenter.adapt(image, region, region)
+    assert not segmenter.adapt(image, region, np.zeros_like(region))  # no skin pixels: nothing to learn
+    segmenter.reset()
+    assert segmenter.model is prior
+    with pytest.raises(ValueError, match='adaptation_rate'):
+        SkinSegmenter(prior, adaptation_rate=2.0)
+
+
+def test_model_file_round_trip_and_errors(tmp_path) -> None:
+    model = default_skin_model()
+    assert len(model.classes) >= 2 and model.notes['non_skin_accepted'] < 0.01
+    again = SkinModel.from_json(model.to_json())
+    np.testing.assert_allclose(again.classes[0].covariance, model.classes[0].covariance, atol=1e-3)
+    bad = tmp_path / 'bad.json'
+    bad.write_text(json.dumps({'match_distance': 2, 'classes': [{'mean': [0, 0], 'covariance': [[1, 2], [2, 1]]}]}))
+    with pytest.raises(ValueError, match='positive definite'):
+        SkinModel.load(bad)
+    with pytest.raises(ValueError, match='cannot load skin model'):
+        SkinModel.load(tmp_path / 'missing.json')
+
+
+def test_training_separates_skin_from_other_colours() -> None:
+    rng = np.random.default_rng(1)
+    skin = np.clip(np.array(SKIN_BGR) + rng.normal(0, 6, size=(500, 3)), 0, 255)
+    other = rng.uniform(0, 255, size=(2000, 3))
+    model = train_skin_model(
+        np.vstack([skin, other]), np.r_[np.ones(500, bool), np.zeros(2000, bool)], num_classes=2, skin_coverage=0.9
+    )
+    inside = model.distance(ohta(skin.astype(np.float32))[:, 1:]) <= model.match_distance
+    assert inside.mean() == pytest.approx(0.9, abs=0.01)
+    assert model.notes['non_skin_accepted'] < 0.05 and model.notes['skin_samples'] == 500
+    with pytest.raises(ValueError, match='skin samples'):
+        train_skin_model(skin[:5], np.ones(5, bool))
+
+
+def test_skin_sample_file_errors(tmp_path) -> None:
+    path = tmp_path / 'samples.txt'
+    path.write_text('1 2 3 1\n4 5 6 3\n')
+    with pytest.raises(ValueError, match='class must be 1'):
+        read_skin_samples(path)
+    path.write_text('1 2 3\n')
+    with pytest.raises(ValueError, match='4 columns'):
+        read_skin_samples(path)
+
+
+@pytest.mark.skipif(not SKIN_SAMPLES.exists(), reason='skin samples (../shared/data/skin) not present')
+def test_the_shipped_model_is_what_train_skin_makes(tmp_path) -> None:
+    out = tmp_path / 'model.json'
+    assert main(['train-skin', str(SKIN_SAMPLES), '--out', str(out)]) == 0
+    trained, shipped = SkinModel.load(out), default_skin_model()
+    assert trained.match_distance == pytest.approx(shipped.match_distance, rel=1e-6)
+    for a, b in zip(trained.classes, shipped.classes, strict=True):
+        np.testing.assert_allclose(a.mean, b.mean, atol=1e-3)
+    assert trained.notes == shipped.notes

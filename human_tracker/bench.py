@@ -3,7 +3,8 @@
 - speed: ms per frame of each stage and of the per-frame pipeline at 640x480 and 320x240,
   the particle filter at 250-2000 particles, and OpenCV's trackers on the same frames;
 - accuracy: ours against CamShift, MIL, KCF and CSRT on the bundled bags and the real
-  sequences in ``../shared/data/real`` (when present), same frames, same first box;
+  sequences in ``../shared/data/real`` (when present), same frames, same first box; and
+  the skin labels' precision and recall on the hand bags and hand-labelled real frames;
 - latency: end-to-end over DDS, described below.
 
 Results go to ``out/bench/results.json`` and ``out/bench/results.md``.
@@ -184,6 +185,21 @@ def _accuracy(sequences: list[Path], contrib_python: Path | None) -> list[dict[s
     return rows
 
 
+def _skin(real_data: Path) -> list[dict[str, object]]:
+    from human_tracker.evaluation.skin import labelled_video_scores, scene_scores
+
+    rows: list[dict[str, object]] = [
+        {'sequence': name, 'truth': 'generator (exact)', **scene_scores(Path('bags') / name)}
+        for name in ('hand_wave', 'hand_cluttered', 'head_basic')
+    ]
+    labels = Path('test/data/vtest_skin_labels.json')
+    if (real_data / 'vtest').exists():
+        rows.append({'sequence': 'vtest', 'truth': 'hand-labelled faces', **labelled_video_scores(labels, real_data)})
+    for row in rows:
+        print(json.dumps(row))
+    return rows
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``python -m human_tracker.bench``."""
     parser = argparse.ArgumentParser(description='Speed, accuracy and latency, measured in one run.')
@@ -225,6 +241,9 @@ def main(argv: list[str] | None = None) -> int:
         results['accuracy'] = _accuracy(sequences, contrib)
         columns = ['sequence', 'tracker', 'precision_20px', 'success_auc', 'mean_centre_error_px', 'ms_per_frame']
         report += ['## accuracy (same frames, same first box)\n', _table(results['accuracy'], columns)]
+        results['skin'] = _skin(options.real_data)
+        columns = ['sequence', 'truth', 'precision', 'recall', 'labelled_fraction', 'regions', 'regions_found']
+        report += ['## skin labels (§3.2) against true skin\n', _table(results['skin'], columns)]
     if 'latency' in sections:
         env = use_ros_environment(int(os.environ.get('ROS_DOMAIN_ID', 150 + os.getpid() % 50)))
         bag_frames = list(read_frames(options.bag))

@@ -145,7 +145,9 @@ def main(argv: list[str] | None = None) -> int:
     track.add_argument(
         'input', help='bag (folder, .mcap, .db3), video file, or folder of frames (optional groundtruth.txt)'
     )
-    track.add_argument('--target', choices=('head', 'hand'), default='head')
+    track.add_argument(
+        '--target', choices=('head', 'hand'), help='what to track (default: what the ground truth outlines, or head)'
+    )
     track.add_argument(
         '--init', type=_box, metavar='X,Y,W,H', help='box of the target in the first frame (default: start from motion)'
     )

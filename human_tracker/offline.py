@@ -55,7 +55,8 @@ class TrackOptions:
     """What to track and how.
 
     Attributes:
-        target: Built-in template name (``head`` or ``hand``).
+        target: Built-in template name (``head`` or ``hand``); None: what the bag's ground
+            truth outlines, else ``head``.
         init: First-frame box (x, y, w, h) of the target's reference region, or None to start
             from motion.
         cue: Motion cue: ``background``, ``flow`` or ``none``.
@@ -67,7 +68,7 @@ class TrackOptions:
         progress: Whether to show a progress bar.
     """
 
-    target: str = 'head'
+    target: str | None = None
     init: Box | None = None
     cue: str = 'background'
     skin: bool | None = None
@@ -93,11 +94,12 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     sequence = open_sequence(source)
-    template = make_template(options.target, template_file=options.template_file)
-    target_parameters = options.target_parameters or parameters_for(options.target)
+    target = options.target or sequence.target or 'head'
+    template = make_template(target, template_file=options.template_file)
+    target_parameters = options.target_parameters or parameters_for(target)
     tracker = TargetTracker(template, options.filter_parameters, target_parameters)
     background, flow = BackgroundModel(), OpticalFlow()
-    use_skin = options.target == 'hand' if options.skin is None else options.skin
+    use_skin = target == 'hand' if options.skin is None else options.skin
     segmenter = SkinSegmenter(default_skin_model()) if use_skin else None
     grey_frames = 0
     predicted: list[Box | None] = []
@@ -165,7 +167,7 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
         writer.release()
     summary: dict[str, object] = {
         'source': str(source),
-        'target': options.target,
+        'target': target,
         'cue': options.cue,
         'skin': use_skin,
         'frames_without_colour': grey_frames,

@@ -50,13 +50,15 @@ def test_mahalanobis_distance_by_hand() -> None:
 
 
 def test_candidate_cells_use_the_cell_mean() -> None:
-    chroma = np.zeros((4, 6, 2))
-    chroma[:2, :2] = (50.0, -5.0)  # cell (0, 0): skin
-    chroma[2:, 4:] = [[[49.0, -5.0], [51.0, -5.0]]] * 2  # cell (1, 2): its pixels average to skin
-    cells = candidate_cells(chroma, _one_class((50.0, -5.0)), cell_size=2)
+    image = np.zeros((4, 6, 3), dtype=np.uint8)  # black: I2 = I3 = 0, not skin
+    image[:2, :2] = SKIN_BGR  # cell (0, 0): skin
+    # Cell (1, 2): red ± 10 column by column (I2 ± 5), so only the mean is skin.
+    image[2:, 4:] = [[(95, 135, 190), (95, 135, 210)]] * 2
+    model = _one_class((52.5, -6.25))
+    cells = candidate_cells(image, model, cell_size=2)
     np.testing.assert_array_equal(cells, [[True, False, False], [False, False, True]])
     # A partial last column of cells is ignored: 7 columns still make 3 cells.
-    assert candidate_cells(np.zeros((4, 7, 2)), _one_class((0.0, 0.0)), cell_size=2).shape == (2, 3)
+    assert candidate_cells(np.zeros((4, 7, 3), np.uint8), model, cell_size=2).shape == (2, 3)
 
 
 def test_merge_cells_through_the_adjacency_graph() -> None:

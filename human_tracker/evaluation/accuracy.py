@@ -41,7 +41,9 @@ def _contrib(name: str, folder: Path, init: Box, contrib_python: Path) -> tuple[
 
 def compare_on_sequence(path: str | Path, contrib_python: Path | None) -> list[dict[str, object]]:
     """Rows (tracker, precision at 20 px, success AUC, mean error, ms per frame) for one sequence."""
-    frames = list(open_sequence(path))
+    sequence = open_sequence(path)
+    target = sequence.target or 'head'
+    frames = list(sequence)
     unreadable = [f.index for f in frames if f.image is None]
     if unreadable:
         raise ValueError(f'{path}: frames {unreadable[:5]} cannot be read; the comparison needs every frame')
@@ -56,10 +58,15 @@ def compare_on_sequence(path: str | Path, contrib_python: Path | None) -> list[d
         for index, frame in enumerate(frames[first:]):
             cv2.imwrite(str(folder / f'{index:06d}.png'), frame.image)
         # Ours on exactly those frames (a folder without ground truth: scored here).
-        summary = track_sequence(folder, Path(scratch) / 'ours', TrackOptions(init=init, progress=False, video=False))
+        options = TrackOptions(target=target, init=init, progress=False, video=False)
+        summary = track_sequence(folder, Path(scratch) / 'ours', options)
         ours = read_poses(Path(scratch) / 'ours' / 'poses.csv')
         rows.append(
-            {'tracker': 'ours (background cue)', **summarise(ours, scored), 'ms_per_frame': summary['ms_per_frame']}
+            {
+                'tracker': 'ours (background + skin)' if summary['skin'] else 'ours (background cue)',
+                **summarise(ours, scored),
+                'ms_per_frame': summary['ms_per_frame'],
+            }
         )
         for name in MAIN_WHEEL_BASELINES:
             boxes, ms = run_baseline(name, (f.image for f in frames[first:]), init)

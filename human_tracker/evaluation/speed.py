@@ -16,8 +16,9 @@ from human_tracker.io.images import message_to_bgr8, to_mono8
 from human_tracker.vision.background import BackgroundModel
 from human_tracker.vision.measurement import edge_map
 from human_tracker.vision.optical_flow import OpticalFlow
-from human_tracker.vision.target import TargetTracker
-from human_tracker.vision.templates import head_and_shoulders
+from human_tracker.vision.skin import SkinSegmenter, default_skin_model
+from human_tracker.vision.target import TargetTracker, parameters_for
+from human_tracker.vision.templates import head_and_shoulders, open_hand
 from human_tracker.vision.tracker import ContourTracker, TrackerParameters
 
 __all__ = ['PARTICLE_COUNTS', 'stage_timings']
@@ -49,10 +50,12 @@ def stage_timings(
 ) -> dict[str, float]:
     """Median ms per frame of each stage on ``frames`` (BGR), resized by ``scale``.
 
-    Stages: ``conversion`` (raw Image message to BGR and grey), ``edges``, ``background``,
-    ``flow``, ``particle_filter_<P>`` (one predict-weigh-resample step with P particles), and
-    ``pipeline`` (conversion + edges + background + flow + the tracker with 500 particles,
-    motion-weighted), all on the same frames.
+    Stages: ``conversion`` (raw Image message to BGR and grey), ``edges``, ``colour_edges``,
+    ``background``, ``flow``, ``skin`` (§3.2 segmentation), ``particle_filter_<P>`` (one
+    predict-weigh-resample step with P particles), ``pipeline`` (conversion + edges +
+    background + flow + the head tracker with 500 particles, motion-weighted) and
+    ``hand_pipeline`` (conversion + background + skin + the hand tracker: colour edges and
+    the colour term), all on the same frames.
     """
     if scale != 1.0:
         frames = [cv2.resize(f, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA) for f in frames]
@@ -65,10 +68,13 @@ def stage_timings(
     results: dict[str, float] = {}
     results['conversion'] = _median_ms(lambda i: to_mono8(message_to_bgr8(messages[i])), count)
     results['edges'] = _median_ms(lambda i: edge_map(grays[i]), count)
+    results['colour_edges'] = _median_ms(lambda i: edge_map(frames[i]), count)
     background = BackgroundModel()
     results['background'] = _median_ms(lambda i: background.apply(grays[i]), count)
     flow = OpticalFlow()
     results['flow'] = _median_ms(lambda i: flow.apply(grays[i]), count)
+    segmenter = SkinSegmenter(default_skin_model())
+    results['skin'] = _median_ms(lambda i: segmenter.segment(frames[i]), count)
     for particles in PARTICLE_COUNTS:
         tracker = ContourTracker(template, TrackerParameters(num_particles=particles, min_scale=24.0 * scale))
         tracker.initialise_from_box(boxes[0])
@@ -84,4 +90,13 @@ def stage_timings(
         return target.process(gray, mask)
 
     results['pipeline'] = _median_ms(pipeline, count)
+    hand = TargetTracker(open_hand(), TrackerParameters(min_scale=24.0 * scale), parameters_for('hand'))
+    hand.initialise_from_box(boxes[0])
+    hand_cue = BackgroundModel()
+
+    def hand_pipeline(i: int) -> object:
+        image = message_to_bgr8(messages[i])
+        return hand.process(image, hand_cue.apply(to_mono8(image)), segmenter.segment(image))
+
+    results['hand_pipeline'] = _median_ms(hand_pipeline, count)
     return {k: round(v, 3) for k, v in results.items()}

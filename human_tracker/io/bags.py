@@ -213,6 +213,22 @@ def _deserialize(reader: AnyReader, raw: bytes, msgtype: str, path: Path) -> obj
         raise BagError(f'{path}: a {msgtype} message cannot be decoded ({type(err).__name__}: {err})') from err
 
 
+def ground_truth_target(path: str | Path) -> str | None:
+    """What a bag's ground truth outlines (``head``, ``hand``: its ``/ground_truth/<target>`` topic), or None.
+
+    Raises:
+        BagError: The bag is missing or unreadable.
+    """
+    path = Path(path)
+    prefix = ground_truth_topic('')
+    try:
+        with AnyReader([path.parent if path.is_file() else path], default_typestore=TYPESTORE) as reader:
+            topics = sorted(c.topic for c in reader.connections if c.topic.startswith(prefix))
+    except (AnyReaderError, OSError) as err:
+        raise BagError(f'cannot read bag {path}: {err}') from err
+    return topics[0][len(prefix) :] if topics else None
+
+
 def read_frames(path: str | Path, *, camera_topic: str | None = None, target: str | None = None) -> Iterator[BagFrame]:
     """Iterate over the camera frames of a bag with their ground truth matched by stamp.
 

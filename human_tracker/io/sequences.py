@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from human_tracker.io.bags import BagError, read_frames
+from human_tracker.io.bags import BagError, ground_truth_target, read_frames
 from human_tracker.io.frames import FrameSourceError, open_frames
 from human_tracker.io.images import ImageConversionError, message_to_bgr8
 
@@ -42,11 +42,15 @@ class SequenceFrame:
 
 @dataclass
 class Sequence:
-    """An opened sequence: its name, nominal rate, and a way to iterate its frames."""
+    """An opened sequence: its name, nominal rate, what its ground truth outlines, and its frames.
+
+    ``target`` is ``head`` or ``hand`` for a bag with ground truth, None otherwise.
+    """
 
     name: str
     fps: float
     path: Path
+    target: str | None = None
 
     def __iter__(self) -> Iterator[SequenceFrame]:
         try:
@@ -87,7 +91,11 @@ def open_sequence(path: str | Path) -> Sequence:
     if not path.exists():
         raise SequenceError(f'{path} does not exist')
     if _is_bag(path):
-        return Sequence(path.stem if path.is_file() else path.name, 30.0, path)
+        try:
+            target = ground_truth_target(path)
+        except BagError as err:
+            raise SequenceError(str(err)) from err
+        return Sequence(path.stem if path.is_file() else path.name, 30.0, path, target)
     try:
         source = open_frames(path)
     except FrameSourceError as err:

@@ -81,14 +81,32 @@ def edge_map(
     dx = cv2.Sobel(image, cv2.CV_16S, 1, 0, ksize=3)
     dy = cv2.Sobel(image, cv2.CV_16S, 0, 1, ksize=3)
     if image.ndim == 3:
-        strongest = np.argmax(np.abs(dx.astype(np.int32)) + np.abs(dy), axis=2)[..., None]
-        dx = np.take_along_axis(dx, strongest, axis=2)[..., 0]
-        dy = np.take_along_axis(dy, strongest, axis=2)[..., 0]
-    edges = cv2.Canny(np.ascontiguousarray(dx), np.ascontiguousarray(dy), low_threshold, high_threshold) > 0
+        dx, dy = _strongest_channel(dx, dy)
+    edges = cv2.Canny(dx, dy, low_threshold, high_threshold) > 0
     out = np.zeros(image.shape[:2], dtype=np.uint8)
     degrees = np.degrees(np.arctan2(dy[edges].astype(np.float32), dx[edges].astype(np.float32)))
     out[edges] = (np.rint(degrees).astype(np.int32) % 180 + 1).astype(np.uint8)
     return out
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _strongest_channel(dx: np.ndarray, dy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per pixel, the derivatives ``(H, W, C) int16`` of the channel with the largest |dx| + |dy|."""
+    height, width, channels = dx.shape
+    out_x = np.empty((height, width), dtype=np.int16)
+    out_y = np.empty((height, width), dtype=np.int16)
+    for v in numba.prange(height):
+        for u in range(width):
+            best = 0
+            strength = -1
+            for c in range(channels):
+                magnitude = abs(np.int32(dx[v, u, c])) + abs(np.int32(dy[v, u, c]))
+                if magnitude > strength:
+                    strength = magnitude
+                    best = c
+            out_x[v, u] = dx[v, u, best]
+            out_y[v, u] = dy[v, u, best]
+    return out_x, out_y
 
 
 @numba.njit(cache=True, fastmath=True, nogil=True)

@@ -25,6 +25,7 @@ from importlib import resources
 from pathlib import Path
 
 import cv2
+import numba
 import numpy as np
 from scipy.cluster.vq import kmeans2
 from scipy.ndimage import gaussian_filter1d
@@ -43,8 +44,7 @@ __all__ = [
     'train_skin_model',
 ]
 
-# Value ranges of I1, I2, I3 for 8-bit colour, used for the histograms.
-_RANGES = ((0.0, 255.0), (-127.5, 127.5), (-127.5, 127.5))
+_OHTA = np.array([[1 / 3, 1 / 3, 1 / 3], [-1 / 2, 0.0, 1 / 2], [-1 / 4, 1 / 2, -1 / 4]], dtype=np.float32)
 
 
 def ohta(image: np.ndarray) -> np.ndarray:
@@ -61,8 +61,8 @@ def ohta(image: np.ndarray) -> np.ndarray:
     bgr = np.asarray(image, dtype=np.float32)
     if bgr.shape[-1] != 3:
         raise ValueError(f'expected B, G, R in the last axis, got shape {bgr.shape}')
-    b, g, r = bgr[..., 0], bgr[..., 1], bgr[..., 2]
-    return np.stack([(r + g + b) / 3.0, (r - b) / 2.0, (2.0 * g - r - b) / 4.0], axis=-1)
+    # One linear map per pixel (rows: I1, I2, I3; columns: B, G, R).
+    return (bgr.reshape(-1, 3) @ _OHTA.T).reshape(bgr.shape)
 
 
 @dataclass(frozen=True)
@@ -265,11 +265,11 @@ class SkinParameters:
                 raise ValueError(message)
 
 
-def candidate_cells(chroma: np.ndarray, model: SkinModel, cell_size: int, match_scale: float = 1.0) -> np.ndarray:
+def candidate_cells(image: np.ndarray, model: SkinModel, cell_size: int, match_scale: float = 1.0) -> np.ndarray:
     """Phase 1a: cells whose mean (I2, I3) lies within the skin classes.
 
     Args:
-        chroma: ``(H, W, 2)`` I2, I3 of the image.
+        image: ``(H, W, 3)`` BGR image.
         model: The skin classes.
         cell_size: Cell side, pixels; a partial last row / column of cells is ignored.
         match_scale: Multiplies ``model.match_distance``.
@@ -277,12 +277,14 @@ def candidate_cells(chroma: np.ndarray, model: SkinModel, cell_size: int, match_
     Returns:
         ``(H // cell_size, W // cell_size) bool``, True for candidate skin cells.
     """
-    rows, cols = chroma.shape[0] // cell_size, chroma.shape[1] // cell_size
+    rows, cols = image.shape[0] // cell_size, image.shape[1] // cell_size
     if rows == 0 or cols == 0:
         return np.zeros((rows, cols), dtype=bool)
-    cropped = chroma[: rows * cell_size, : cols * cell_size]
-    means = cropped.reshape(rows, cell_size, cols, cell_size, 2).mean(axis=(1, 3))
-    return model.distance(means) <= model.match_distance * match_scale
+    cropped = np.asarray(image[: rows * cell_size, : cols * cell_size], dtype=np.float32)
+    # I1 I2 I3 are linear in B, G, R, so the cell's mean chromaticity is that of its mean
+    # colour; area interpolation by a whole factor is the mean of each cell.
+    means = cv2.resize(cropped, (cols, rows), interpolation=cv2.INTER_AREA).reshape(rows, cols, 3)
+    return model.distance(ohta(means)[..., 1:]) <= model.match_distance * match_scale
 
 
 def merge_cells(candidates: np.ndarray, min_region_cells: int = 1) -> tuple[np.ndarray, int]:
@@ -332,28 +334,101 @@ def histogram_modes(
         ``(B,) int64``: the mode of each bin, 0 for the highest peak, 1 for the next, ...;
         ``max_peaks`` for bins in no mode.
     """
-    smooth = np.asarray(histogram, dtype=np.float64)
+    smooth = np.asarray(histogram, dtype=np.float64)[None, :]
     if smoothing > 0:
-        smooth = gaussian_filter1d(smooth, smoothing, mode='constant')
-    bins = smooth.shape[0]
-    modes = np.full(bins, max_peaks, dtype=np.int64)
-    padded = np.concatenate([[-1.0], smooth, [-1.0]])
-    is_peak = (padded[1:-1] > padded[:-2]) & (padded[1:-1] >= padded[2:]) & (smooth > 0)
-    peaks = np.flatnonzero(is_peak & (smooth >= peak_fraction * smooth.max(initial=0.0)))
-    for mode, peak in enumerate(peaks[np.argsort(-smooth[peaks], kind='stable')][:max_peaks]):
-        floor = support_fraction * smooth[peak]
-        modes[peak] = mode
-        for direction in (-1, 1):
-            b = peak + direction
-            while 0 <= b < bins and modes[b] == max_peaks and floor <= smooth[b] <= smooth[b - direction]:
-                modes[b] = mode
-                b += direction
+        smooth = gaussian_filter1d(smooth, smoothing, axis=1, mode='constant')
+    return _modes(smooth, peak_fraction, support_fraction, max_peaks)[0]
+
+
+@numba.njit(cache=True, nogil=True)
+def _modes(smooth: np.ndarray, peak_fraction: float, support_fraction: float, max_peaks: int) -> np.ndarray:
+    """:func:`histogram_modes` for each row of ``(R, B)`` smoothed histograms."""
+    rows, bins = smooth.shape
+    modes = np.full((rows, bins), max_peaks, dtype=np.int64)
+    for r in range(rows):
+        h = smooth[r]
+        highest = h.max()
+        peaks = np.empty(bins, dtype=np.int64)
+        found = 0
+        for b in range(bins):
+            left = h[b - 1] if b > 0 else -1.0
+            right = h[b + 1] if b < bins - 1 else -1.0
+            if h[b] > left and h[b] >= right and h[b] > 0 and h[b] >= peak_fraction * highest:
+                peaks[found] = b
+                found += 1
+        # Highest first; a stable sort keeps the lower bin first among equal heights.
+        order = peaks[:found][np.argsort(-h[peaks[:found]], kind='mergesort')]
+        for mode in range(min(max_peaks, found)):
+            peak = order[mode]
+            floor = support_fraction * h[peak]
+            modes[r, peak] = mode
+            for direction in (-1, 1):
+                b = peak + direction
+                while 0 <= b < bins and modes[r, b] == max_peaks and floor <= h[b] <= h[b - direction]:
+                    modes[r, b] = mode
+                    b += direction
     return modes
 
 
-def _bins(values: np.ndarray, channel: int, bins: int) -> np.ndarray:
-    low, high = _RANGES[channel]
-    return np.clip(((values - low) * (bins / (high - low))).astype(np.int64), 0, bins - 1)
+@numba.njit(cache=True, nogil=True)
+def _pixel_bins(pixel: np.ndarray, bins: int) -> tuple[int, int, int]:
+    """Histogram bins of a BGR pixel's I1, I2, I3 (ranges [0, 255], [-127.5, 127.5] twice)."""
+    b, g, r = float(pixel[0]), float(pixel[1]), float(pixel[2])
+    values = ((r + g + b) / 3.0, (r - b) / 2.0 + 127.5, (2.0 * g - r - b) / 4.0 + 127.5)
+    scale = bins / 255.0
+    return (
+        min(int(values[0] * scale), bins - 1),
+        min(int(values[1] * scale), bins - 1),
+        min(int(values[2] * scale), bins - 1),
+    )
+
+
+@numba.njit(cache=True, nogil=True)
+def _region_histograms(image: np.ndarray, region: np.ndarray, count: int, bins: int) -> np.ndarray:
+    """``(count, 3, bins)`` I1, I2, I3 histograms of each region (labels 1..count in ``region``)."""
+    histograms = np.zeros((count, 3, bins), dtype=np.float64)
+    height, width = region.shape
+    for v in range(height):
+        for u in range(width):
+            r = region[v, u]
+            if r > 0:
+                b1, b2, b3 = _pixel_bins(image[v, u], bins)
+                histograms[r - 1, 0, b1] += 1.0
+                histograms[r - 1, 1, b2] += 1.0
+                histograms[r - 1, 2, b3] += 1.0
+    return histograms
+
+
+@numba.njit(cache=True, nogil=True)
+def _cluster_statistics(
+    image: np.ndarray, region: np.ndarray, lookup: np.ndarray, bins: int, per_mode: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Each pixel's cluster (region and I1, I2, I3 modes; -1 outside regions), and per cluster
+    the pixel count and the sums of I2, I3 and of their squares."""
+    height, width = region.shape
+    size = lookup.shape[0] * per_mode**3
+    clusters = np.full((height, width), -1, dtype=np.int64)
+    n = np.zeros(size)
+    sums = np.zeros((size, 2))
+    squares = np.zeros((size, 2))
+    for v in range(height):
+        for u in range(width):
+            r = region[v, u]
+            if r == 0:
+                continue
+            b1, b2, b3 = _pixel_bins(image[v, u], bins)
+            m = lookup[r - 1]
+            cluster = (r - 1) * per_mode**3 + (m[0, b1] * per_mode + m[1, b2]) * per_mode + m[2, b3]
+            clusters[v, u] = cluster
+            b, g, red = float(image[v, u, 0]), float(image[v, u, 1]), float(image[v, u, 2])
+            i2 = (red - b) / 2.0
+            i3 = (2.0 * g - red - b) / 4.0
+            n[cluster] += 1.0
+            sums[cluster, 0] += i2
+            sums[cluster, 1] += i3
+            squares[cluster, 0] += i2 * i2
+            squares[cluster, 1] += i3 * i3
+    return clusters, n, sums, squares
 
 
 def segment_skin(
@@ -374,50 +449,23 @@ def segment_skin(
     p = parameters or SkinParameters()
     if image.ndim != 3 or image.shape[2] != 3:
         raise ValueError(f'skin segmentation needs a (H, W, 3) colour image, got shape {image.shape}')
+    image = np.ascontiguousarray(image, dtype=np.uint8)
     height, width = image.shape[:2]
-    mask = np.zeros((height, width), dtype=np.uint8)
-    components = ohta(image)
-    cells, count = merge_cells(
-        candidate_cells(components[..., 1:], model, p.cell_size, p.match_scale), p.min_region_cells
-    )
+    cells, count = merge_cells(candidate_cells(image, model, p.cell_size, p.match_scale), p.min_region_cells)
     if count == 0:
-        return mask
+        return np.zeros((height, width), dtype=np.uint8)
     # Each region grows by one cell (the dilation keeps the larger label where two meet) so
     # that pixels of skin in cells that were mostly background are looked at too.
-    grown = cv2.dilate(cells.astype(np.uint16), np.ones((3, 3), np.uint8)).astype(np.int32)
-    region = np.zeros((height, width), dtype=np.int32)
-    region[: cells.shape[0] * p.cell_size, : cells.shape[1] * p.cell_size] = np.kron(
-        grown, np.ones((p.cell_size, p.cell_size), dtype=np.int32)
-    )
-    ys, xs = np.nonzero(region)
-    labels = region[ys, xs] - 1
-    values = components[ys, xs]
-    bins = p.histogram_bins
-    modes = np.zeros((values.shape[0], 3), dtype=np.int64)
-    for channel in range(3):
-        binned = _bins(values[:, channel], channel, bins)
-        histograms = np.bincount(labels * bins + binned, minlength=count * bins).reshape(count, bins)
-        lookup = np.stack(
-            [
-                histogram_modes(
-                    histograms[r],
-                    smoothing=p.histogram_smoothing,
-                    peak_fraction=p.peak_fraction,
-                    support_fraction=p.support_fraction,
-                    max_peaks=p.max_peaks,
-                )
-                for r in range(count)
-            ]
-        )
-        modes[:, channel] = lookup[labels, binned]
+    grown = cv2.dilate(cells.astype(np.uint16), np.ones((3, 3), np.uint8))
+    region = np.zeros((height, width), dtype=np.uint16)
+    extent = (cells.shape[1] * p.cell_size, cells.shape[0] * p.cell_size)
+    region[: extent[1], : extent[0]] = cv2.resize(grown, extent, interpolation=cv2.INTER_NEAREST)
+    histograms = _region_histograms(image, region, count, p.histogram_bins).reshape(count * 3, -1)
+    if p.histogram_smoothing > 0:
+        histograms = gaussian_filter1d(histograms, p.histogram_smoothing, axis=1, mode='constant')
+    lookup = _modes(histograms, p.peak_fraction, p.support_fraction, p.max_peaks).reshape(count, 3, -1)
     # A pixel's cluster: its region and its mode in each of I1, I2, I3 (max_peaks + 1 each).
-    k = p.max_peaks + 1
-    cluster = labels * k**3 + (modes[:, 0] * k + modes[:, 1]) * k + modes[:, 2]
-    size = count * k**3
-    n = np.bincount(cluster, minlength=size).astype(np.float64)
-    chroma = values[:, 1:].astype(np.float64)
-    sums = np.stack([np.bincount(cluster, chroma[:, k], minlength=size) for k in range(2)], axis=1)
-    squares = np.stack([np.bincount(cluster, chroma[:, k] ** 2, minlength=size) for k in range(2)], axis=1)
+    clusters, n, sums, squares = _cluster_statistics(image, region, lookup, p.histogram_bins, p.max_peaks + 1)
     populated = n >= p.min_cluster_pixels
     safe = np.maximum(n, 1.0)[:, None]
     means = sums / safe
@@ -426,8 +474,8 @@ def segment_skin(
     nearest = model.nearest(means)
     class_variances = np.array([np.diag(c.covariance) for c in model.classes])[nearest]
     is_skin &= np.all(variances <= p.variance_ratio * class_variances, axis=1)
-    mask[ys[is_skin[cluster]], xs[is_skin[cluster]]] = 255
-    return mask
+    # Cluster -1 (outside every region) reads the appended False.
+    return np.append(is_skin, False)[clusters].astype(np.uint8) * 255
 
 
 @dataclass

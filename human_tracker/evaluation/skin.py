@@ -1,0 +1,92 @@
+"""How well the skin labels (§3.2) cover true skin: pixel precision and recall, regions found.
+
+Truth comes from the scene generator (exact skin of the face and the hand, frames read back
+from the bundled JPEG bags) or from hand-labelled boxes of real frames (a JSON file of
+inclusive ``[x0, y0, x1, y1]`` boxes per frame index).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from human_tracker.io.sequences import open_sequence
+from human_tracker.scenes.generator import SCENES, render_scene
+from human_tracker.vision.skin import SkinModel, SkinParameters, default_skin_model, segment_skin
+
+__all__ = ['box_mask', 'labelled_video_scores', 'scene_scores', 'skin_scores']
+
+
+def box_mask(shape: tuple[int, int], boxes: Sequence[Sequence[int]]) -> np.ndarray:
+    """``(H, W) bool`` mask, True inside the inclusive boxes ``[x0, y0, x1, y1]``."""
+    mask = np.zeros(shape, dtype=bool)
+    for x0, y0, x1, y1 in boxes:
+        mask[y0 : y1 + 1, x0 : x1 + 1] = True
+    return mask
+
+
+def skin_scores(predicted: Sequence[np.ndarray], truth: Sequence[np.ndarray]) -> dict[str, float | int]:
+    """Pixel precision and recall over frames, and how many true skin regions got any label.
+
+    Args:
+        predicted: ``(H, W)`` skin labels per frame (non-zero: skin).
+        truth: ``(H, W) bool`` true skin per frame.
+
+    Returns:
+        ``precision``, ``recall`` (pixels, all frames pooled; precision is 0 with no label),
+        ``labelled_fraction`` (of all pixels), ``regions`` (8-connected true regions) and
+        ``regions_found`` (those with at least one pixel labelled skin).
+    """
+    hits = labelled = true = pixels = regions = found = 0
+    for labels, skin in zip(predicted, truth, strict=True):
+        labels = np.asarray(labels) > 0
+        hits += int(np.count_nonzero(labels & skin))
+        labelled += int(np.count_nonzero(labels))
+        true += int(np.count_nonzero(skin))
+        pixels += labels.size
+        count, components = cv2.connectedComponents(skin.astype(np.uint8), connectivity=8)
+        regions += count - 1
+        found += len(np.setdiff1d(np.unique(components[labels]), [0]))
+    return {
+        'precision': round(hits / labelled, 4) if labelled else 0.0,
+        'recall': round(hits / true, 4) if true else float('nan'),
+        'labelled_fraction': round(labelled / pixels, 4) if pixels else 0.0,
+        'regions': regions,
+        'regions_found': found,
+    }
+
+
+def scene_scores(
+    bag: Path, model: SkinModel | None = None, parameters: SkinParameters | None = None, step: int = 10
+) -> dict[str, float | int]:
+    """Scores on every ``step``-th frame of a bundled scene bag, against the generator's true skin."""
+    spec = SCENES[bag.name]
+    truth = [f.skin for f in render_scene(spec)][::step]
+    images = [f.image for f in open_sequence(bag)][::step]
+    model = model or default_skin_model()
+    return skin_scores([segment_skin(image, model, parameters) for image in images], truth)
+
+
+def labelled_video_scores(
+    labels: Path, real_data: Path, model: SkinModel | None = None, parameters: SkinParameters | None = None
+) -> dict[str, float | int]:
+    """Scores on the hand-labelled frames of a real video (``labels`` names the video under ``real_data``)."""
+    spec = json.loads(labels.read_text())
+    capture = cv2.VideoCapture(str(real_data / spec['source']))
+    model = model or default_skin_model()
+    predicted, truth = [], []
+    try:
+        for index, boxes in sorted(spec['frames'].items(), key=lambda item: int(item[0])):
+            capture.set(cv2.CAP_PROP_POS_FRAMES, int(index))
+            ok, image = capture.read()
+            if not ok:
+                raise ValueError(f'{spec["source"]}: frame {index} cannot be read')
+            predicted.append(segment_skin(image, model, parameters))
+            truth.append(box_mask(image.shape[:2], boxes))
+    finally:
+        capture.release()
+    return skin_scores(predicted, truth)

@@ -1,4 +1,4 @@
-"""OTB metrics with hand-computed values."""
+"""OTB metrics and skin label scores with hand-computed values."""
 
 from __future__ import annotations
 
@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from human_tracker.evaluation.metrics import centre_errors, overlaps, precision_at, success_auc, summarise
+from human_tracker.evaluation.skin import box_mask, skin_scores
 
 
 def test_centre_error_iou_and_precision_hand_computed() -> None:
@@ -24,3 +25,20 @@ def test_success_auc_of_perfect_and_empty_tracks() -> None:
     assert success_auc(np.zeros(5)) == pytest.approx(0.0)
     summary = summarise([(0, 0, 10, 10)], [(0, 0, 10, 10)])
     assert summary['precision_20px'] == 1.0 and summary['mean_centre_error_px'] == 0.0
+
+
+def test_skin_scores_by_hand() -> None:
+    truth = np.zeros((4, 6), dtype=bool)
+    truth[0:2, 0:2] = True  # region 1: 4 pixels
+    truth[3, 5] = True  # region 2: 1 pixel
+    labels = np.zeros((4, 6), dtype=np.uint8)
+    labels[0:2, 1:3] = 255  # 2 hits, 2 false labels; region 2 missed
+    scores = skin_scores([labels], [truth])
+    assert scores == {
+        'precision': 0.5,
+        'recall': 0.4,
+        'labelled_fraction': round(4 / 24, 4),
+        'regions': 2,
+        'regions_found': 1,
+    }
+    np.testing.assert_array_equal(box_mask((3, 3), [[1, 0, 2, 1]]), [[0, 1, 1], [0, 1, 1], [0, 0, 0]])

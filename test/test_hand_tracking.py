@@ -4,11 +4,19 @@ from __future__ import annotations
 
 import dataclasses
 
+import cv2
+import numpy as np
 import pytest
 from conftest import REPO
 
+from human_tracker.evaluation.metrics import centre_errors
 from human_tracker.offline import TrackOptions, track_sequence
-from human_tracker.vision.target import parameters_for
+from human_tracker.scenes.generator import SCENES, render_scene
+from human_tracker.vision.background import BackgroundModel
+from human_tracker.vision.skin import SkinSegmenter, default_skin_model
+from human_tracker.vision.target import TargetTracker, parameters_for
+from human_tracker.vision.templates import open_hand
+from human_tracker.vision.tracker import TrackerParameters
 
 HAND = parameters_for('hand')
 VARIANTS = {
@@ -35,3 +43,26 @@ def test_hand_with_colour_beats_the_tracker_without(bag, tmp_path) -> None:
     if bag == 'hand_cluttered':
         # A hand as bright as the wood behind it: without colour its edges are not seen.
         assert scores['no colour'] < 0.5
+
+
+def test_a_hand_that_leaves_is_lost_and_found_again() -> None:
+    """The hand_wave scene with the hand (and arm) out of view for frames 50-80."""
+    spec = dataclasses.replace(SCENES['hand_wave'], name='hand_leaves', absent=((50, 80),))
+    frames = list(render_scene(spec))
+    tracker = TargetTracker(open_hand(), TrackerParameters(), HAND)
+    segmenter, background = SkinSegmenter(default_skin_model()), BackgroundModel()
+    statuses, boxes = [], []
+    for frame in frames:
+        gray = cv2.cvtColor(frame.image, cv2.COLOR_BGR2GRAY)
+        result = tracker.process(frame.image, background.apply(gray), segmenter.segment(frame.image))
+        statuses.append(result.status)
+        boxes.append(result.estimate.box if result.tracking else None)
+    away = statuses[50:80]
+    back = next(i for i in range(80, len(frames)) if statuses[i] == 'TRACKING')
+    errors = centre_errors(boxes, [f.box for f in frames])
+    print(
+        f'hand away 50-80: LOST on {away.count("LOST")} of 30 frames, tracked again at {back}; '
+        f'precision on the frames in view {np.mean(errors < 20):.3f}'
+    )
+    assert away.count('LOST') >= 20  # after lost_frames (5) of empty skin inside the contour
+    assert back <= 85 and np.mean(errors < 20) >= 0.9

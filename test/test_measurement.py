@@ -31,10 +31,10 @@ def test_eq2_distance_squared_or_miss_penalty() -> None:
     # Particle at (10, 10), s = 1, θ = 0. Point 0 at (10, 10) finds the edge 3 px away along
     # its normal: φ = 3² = 9. Point 1 at (10, 15) looks along y and never meets column 13: φ = ρ.
     particles = np.array([[10.0, 10.0, 1.0, 0.0]])
-    costs, matched, _ = contour_costs(_scene(), particles, POINTS, NORMALS, search_halfwidth=5, miss_penalty=50)
+    costs, matched, _, _ = contour_costs(_scene(), particles, POINTS, NORMALS, search_halfwidth=5, miss_penalty=50)
     assert costs[0] == pytest.approx(9 + 50) and matched[0] == 1
     # With δ = 3 the edge at d = 3 is no longer within d < δ: both points miss.
-    costs, matched, _ = contour_costs(_scene(), particles, POINTS, NORMALS, search_halfwidth=3, miss_penalty=50)
+    costs, matched, _, _ = contour_costs(_scene(), particles, POINTS, NORMALS, search_halfwidth=3, miss_penalty=50)
     assert costs[0] == pytest.approx(100) and matched[0] == 0
 
 
@@ -42,7 +42,7 @@ def test_eq2_searches_both_sides_and_takes_the_closest_edge() -> None:
     edges = _scene()
     edges[:, 8] = VERTICAL_EDGE  # 2 px on the other side of x = 10: closer than column 13
     particles = np.array([[10.0, 10.0, 1.0, 0.0]])
-    costs, _, _ = contour_costs(edges, particles, POINTS[:1], NORMALS[:1], search_halfwidth=5, miss_penalty=50)
+    costs, _, _, _ = contour_costs(edges, particles, POINTS[:1], NORMALS[:1], search_halfwidth=5, miss_penalty=50)
     assert costs[0] == pytest.approx(4)
 
 
@@ -50,20 +50,21 @@ def test_state_moves_the_points_scale_and_rotation_apply() -> None:
     # θ = -90° maps template point (0, 5) to (5, 0) and its normal from +y to +x; s = 2 makes
     # the offset (10, 0), so from (0, 10) the point lands on (10, 10) and meets column 13 at d = 3.
     particles = np.array([[0.0, 10.0, 2.0, -np.pi / 2]])
-    costs, matched, _ = contour_costs(_scene(), particles, POINTS[1:], NORMALS[1:], search_halfwidth=5, miss_penalty=50)
+    fit = contour_costs(_scene(), particles, POINTS[1:], NORMALS[1:], search_halfwidth=5, miss_penalty=50)
+    costs, matched = fit.costs, fit.matched
     assert matched[0] == 1 and costs[0] == pytest.approx(9)
 
 
 def test_eq3_eq4_motion_weighting() -> None:
     particles = np.array([[10.0, 10.0, 1.0, 0.0]])
     motion = np.zeros((40, 40), dtype=np.uint8)
-    still, _, moving_count = contour_costs(
+    still, _, moving_count, _ = contour_costs(
         _scene(), particles, POINTS, NORMALS, search_halfwidth=5, miss_penalty=50, motion=motion
     )
     # γ = 1 at a still edge: φ = 9 + ρ; the miss costs 2ρ: 59 + 100.
     assert still[0] == pytest.approx(9 + 50 + 100) and moving_count[0] == 0
     motion[:, 13] = 255
-    moving, _, moving_count = contour_costs(
+    moving, _, moving_count, _ = contour_costs(
         _scene(), particles, POINTS, NORMALS, search_halfwidth=5, miss_penalty=50, motion=motion
     )
     # γ = 0 at a moving edge: φ = 9; the miss still costs 2ρ.
@@ -75,16 +76,16 @@ def test_orientation_tolerance_rejects_edges_across_the_normal() -> None:
     edges[13, :] = 1 + 90  # a horizontal edge: gradient along y
     particles = np.array([[10.0, 10.0, 1.0, 0.0]])
     point, along_x = POINTS[:1], NORMALS[:1]
-    strict, _, _ = contour_costs(
+    strict, _, _, _ = contour_costs(
         edges, particles, point, along_x, search_halfwidth=5, miss_penalty=50, orientation_tolerance=0.5
     )
     assert strict[0] == pytest.approx(50)  # the only edge runs along the normal: no match
     along_y = np.array([[0.0, 1.0]])
-    hit, _, _ = contour_costs(
+    hit, _, _, _ = contour_costs(
         edges, particles, point, along_y, search_halfwidth=5, miss_penalty=50, orientation_tolerance=0.5
     )
     assert hit[0] == pytest.approx(9)
-    paper, _, _ = contour_costs(edges, particles, point, along_y, search_halfwidth=5, miss_penalty=50)
+    paper, _, _, _ = contour_costs(edges, particles, point, along_y, search_halfwidth=5, miss_penalty=50)
     assert paper[0] == pytest.approx(9)
 
 
@@ -95,17 +96,17 @@ def test_colour_term_by_hand() -> None:
     point, normal = POINTS[:1], NORMALS[:1]
     skin = np.zeros((20, 20), dtype=np.uint8)
     skin[:, :12] = 255  # skin up to x = 11: interior all skin, one exterior sample on skin
-    gamma = colour_costs(skin, particles, point, normal, interior_weight=2.0, depth=0.3, samples=3)
-    assert gamma[0] == pytest.approx((0 / 2 + 1) / 3)
+    gamma, interior_skin = colour_costs(skin, particles, point, normal, interior_weight=2.0, depth=0.3, samples=3)
+    assert gamma[0] == pytest.approx((0 / 2 + 1) / 3) and interior_skin[0] == pytest.approx(1.0)
     skin[:] = 0
     skin[:, :9] = 255  # skin up to x = 8: x = 9 inside is not skin, outside is clean
-    gamma = colour_costs(skin, particles, point, normal, interior_weight=2.0, depth=0.3, samples=3)
-    assert gamma[0] == pytest.approx((1 / 2 + 0) / 3)
+    gamma, interior_skin = colour_costs(skin, particles, point, normal, interior_weight=2.0, depth=0.3, samples=3)
+    assert gamma[0] == pytest.approx((1 / 2 + 0) / 3) and interior_skin[0] == pytest.approx(2 / 3)
     # w > 1 is the paper's condition; the samples off the image count as not skin.
     with pytest.raises(ValueError, match='w'):
         colour_costs(skin, particles, point, normal, interior_weight=1.0)
     outside = colour_costs(skin, np.array([[-50.0, -50.0, 10.0, 0.0]]), point, normal, depth=0.3, samples=3)
-    assert outside[0] == pytest.approx((3 / 2) / 3)
+    assert outside.costs[0] == pytest.approx((3 / 2) / 3) and outside.interior_skin[0] == 0.0
 
 
 def test_colour_edges_see_a_step_between_equally_bright_colours() -> None:

@@ -95,6 +95,12 @@ TARGET_PARAMETERS = (
         0.0,
         1.0,
     ),
+    ParameterSpec(
+        'lost_skin_support',
+        'Share of the contour interior on skin below which a frame with skin labels is weak; 0: off.',
+        0.0,
+        1.0,
+    ),
     ParameterSpec('lost_frames', 'Consecutive weak frames after which the target is lost.', 1, 100000),
     ParameterSpec('colour_edges', 'Detect edges on the colour image (strongest channel), not on its intensity.'),
     ParameterSpec('edge_blur_sigma', 'Gaussian pre-filter of the edge detector, pixels.', 0.0, 20.0),

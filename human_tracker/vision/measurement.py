@@ -35,7 +35,15 @@ import cv2
 import numba
 import numpy as np
 
-__all__ = ['ContourFit', 'colour_costs', 'contour_costs', 'edge_map', 'log_likelihood', 'normalised_weights']
+__all__ = [
+    'ColourFit',
+    'ContourFit',
+    'colour_costs',
+    'contour_costs',
+    'edge_map',
+    'log_likelihood',
+    'normalised_weights',
+]
 
 
 class ContourFit(NamedTuple):
@@ -45,11 +53,26 @@ class ContourFit(NamedTuple):
         costs: ``(P,) float64`` Σ_j φ(j) of eq. 2 (or eq. 3 with motion).
         matched: ``(P,) int64`` points whose normal met an edge within δ.
         moving: ``(P,) int64`` of those, points whose edge lies on the motion mask.
+        skin: ``(P,) float64`` share of the contour's interior samples labelled skin, or
+            None without skin labels.
     """
 
     costs: np.ndarray
     matched: np.ndarray
     moving: np.ndarray
+    skin: np.ndarray | None = None
+
+
+class ColourFit(NamedTuple):
+    """The colour term of every particle.
+
+    Attributes:
+        costs: ``(P,) float64`` Σ_j γ_colour(j).
+        interior_skin: ``(P,) float64`` share of the interior samples labelled skin, in [0, 1].
+    """
+
+    costs: np.ndarray
+    interior_skin: np.ndarray
 
 
 def edge_map(
@@ -264,6 +287,7 @@ def _colour_costs(
     samples: int,
     interior_weight: float,
     costs: np.ndarray,
+    interior_skin: np.ndarray,
 ) -> None:
     height, width = skin.shape
     num_points = points.shape[0]
@@ -275,6 +299,7 @@ def _colour_costs(
         s = np.sin(particles[i, 3])
         step = depth * scale / samples
         total = 0.0
+        skin_inside = 0.0
         for j in range(num_points):
             px = x + scale * (c * points[j, 0] - s * points[j, 1])
             py = y + scale * (s * points[j, 0] + c * points[j, 1])
@@ -292,7 +317,9 @@ def _colour_costs(
                     else:
                         outside_skin += label
             total += (inside_not_skin / interior_weight + outside_skin) / samples
+            skin_inside += samples - inside_not_skin
         costs[i] = total
+        interior_skin[i] = skin_inside / (samples * num_points)
 
 
 def colour_costs(
@@ -304,7 +331,7 @@ def colour_costs(
     interior_weight: float = 2.0,
     depth: float = 0.1,
     samples: int = 3,
-) -> np.ndarray:
+) -> ColourFit:
     """Σ_j γ_colour(j) for every particle: the colour term of §3.2.
 
     Args:
@@ -318,7 +345,8 @@ def colour_costs(
         samples: Samples on each side of every point.
 
     Returns:
-        ``(P,) float64`` the sum over points of γ_colour(j), each in [0, 1 + 1/w].
+        Per particle, the sum over points of γ_colour(j) (each in [0, 1 + 1/w]) and the
+        share of interior samples on skin.
     """
     if interior_weight <= 1.0:
         raise ValueError(f'interior_weight (w) must be > 1, got {interior_weight}')
@@ -327,6 +355,7 @@ def colour_costs(
     if skin.ndim != 2:
         raise ValueError(f'skin labels must be a 2-D image, got shape {skin.shape}')
     costs = np.empty(particles.shape[0], dtype=np.float64)
+    interior_skin = np.empty(particles.shape[0], dtype=np.float64)
     _colour_costs(
         np.ascontiguousarray(skin, dtype=np.uint8),
         np.ascontiguousarray(particles, dtype=np.float64),
@@ -336,8 +365,9 @@ def colour_costs(
         int(samples),
         float(interior_weight),
         costs,
+        interior_skin,
     )
-    return costs
+    return ColourFit(costs, interior_skin)
 
 
 def log_likelihood(costs: np.ndarray, likelihood_gain: float) -> np.ndarray:

@@ -89,6 +89,9 @@ class TargetParameters:
         lost_confidence: Fraction of contour points finding an edge below which a frame is weak.
         lost_motion_support: Fraction of contour points on the motion mask below which a
             frame with a mask is weak; 0 disables the test (use it with the foreground cue).
+        lost_skin_support: Share of the contour's interior on skin below which a frame with
+            skin labels is weak (a hand that left the view leaves the contour on the room),
+            and below which a hypothesis does not start the filter; 0 disables the test.
         lost_frames: Consecutive weak frames after which the target is lost.
         colour_edges: Detect edges on the colour image (strongest channel per pixel) when
             ``process`` is given one, not on its intensity.
@@ -111,6 +114,7 @@ class TargetParameters:
     hypothesis_blobs: int = 1
     lost_confidence: float = 0.3
     lost_motion_support: float = 0.0
+    lost_skin_support: float = 0.0
     lost_frames: int = 5
     colour_edges: bool = False
     edge_blur_sigma: float = 1.5
@@ -119,16 +123,17 @@ class TargetParameters:
 
     def validate(self) -> None:
         """Raise ValueError naming the first parameter out of its range."""
-        if self.motion_mode not in MOTION_MODES:
-            raise ValueError(f'motion_mode must be one of {", ".join(MOTION_MODES)}, got {self.motion_mode!r}')
-        if self.colour_mode not in COLOUR_MODES:
-            raise ValueError(f'colour_mode must be one of {", ".join(COLOUR_MODES)}, got {self.colour_mode!r}')
-        if self.init_region not in INIT_REGIONS:
-            raise ValueError(f'init_region must be one of {", ".join(INIT_REGIONS)}, got {self.init_region!r}')
+        choices = {
+            'motion_mode': MOTION_MODES,
+            'colour_mode': COLOUR_MODES,
+            'init_method': INIT_METHODS,
+            'init_region': INIT_REGIONS,
+        }
+        for name, allowed in choices.items():
+            if getattr(self, name) not in allowed:
+                raise ValueError(f'{name} must be one of {", ".join(allowed)}, got {getattr(self, name)!r}')
         if self.skin_margin < 0:
             raise ValueError(f'skin_margin must be >= 0, got {self.skin_margin}')
-        if self.init_method not in INIT_METHODS:
-            raise ValueError(f'init_method must be one of {", ".join(INIT_METHODS)}, got {self.init_method!r}')
         if self.min_blob_area < 1:
             raise ValueError(f'min_blob_area must be >= 1, got {self.min_blob_area}')
         if not 0.0 <= self.init_confidence <= 1.0 or not 0.0 <= self.switch_margin <= 1.0:
@@ -140,11 +145,9 @@ class TargetParameters:
                 f'hypothesis_samples and hypothesis_blobs must be >= 1, got '
                 f'{self.hypothesis_samples}, {self.hypothesis_blobs}'
             )
-        if not 0.0 <= self.lost_confidence <= 1.0 or not 0.0 <= self.lost_motion_support <= 1.0:
-            raise ValueError(
-                'lost_confidence and lost_motion_support must be in [0, 1], '
-                f'got {self.lost_confidence}, {self.lost_motion_support}'
-            )
+        for name in ('lost_confidence', 'lost_motion_support', 'lost_skin_support'):
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                raise ValueError(f'{name} must be in [0, 1], got {getattr(self, name)}')
         if self.lost_frames < 1:
             raise ValueError(f'lost_frames must be >= 1, got {self.lost_frames}')
         if self.canny_low < 0 or self.canny_high < self.canny_low:
@@ -160,9 +163,15 @@ def parameters_for(target: str) -> TargetParameters:
     """
     if target == 'hand':
         # No switching while a hand is tracked: it stops and starts waving, and a swaying
-        # face or sleeve then moves more; a lost hand is found again among the skin regions.
+        # face or sleeve then moves more. A hand that leaves takes the skin from inside the
+        # contour, so it is lost, and found again among the skin regions when it comes back.
         return TargetParameters(
-            init_method='moments', init_region='skin', hypothesis_blobs=3, switch_margin=1.0, colour_edges=True
+            init_method='moments',
+            init_region='skin',
+            hypothesis_blobs=3,
+            switch_margin=1.0,
+            lost_skin_support=0.7,
+            colour_edges=True,
         )
     return TargetParameters()
 
@@ -174,11 +183,13 @@ class Hypothesis(NamedTuple):
         state: ``(4,)`` [x, y, s, θ].
         confidence: Fraction of contour points that found an edge.
         motion_support: Fraction of contour points whose edge moves.
+        skin_support: Share of the contour's interior on skin (1 without skin labels).
     """
 
     state: np.ndarray
     confidence: float
     motion_support: float
+    skin_support: float = 1.0
 
 
 @dataclass
@@ -279,7 +290,9 @@ class TargetTracker:
             score = -fit.costs if skin is not None else fit.matched + fit.moving - 1e-6 * fit.costs
             k = int(np.argmax(score))
             if best is None or score[k] > best[0]:
-                best = (float(score[k]), Hypothesis(cloud[k], float(fit.matched[k]) / n, float(fit.moving[k]) / n))
+                skin_support = 1.0 if fit.skin is None else float(fit.skin[k])
+                hypothesis = Hypothesis(cloud[k], float(fit.matched[k]) / n, float(fit.moving[k]) / n, skin_support)
+                best = (float(score[k]), hypothesis)
         return None if best is None else best[1]
 
     def process(
@@ -323,6 +336,8 @@ class TargetTracker:
         weak = estimate.confidence < p.lost_confidence
         if motion is not None and estimate.motion_support < p.lost_motion_support:
             weak = True
+        if likelihood_skin is not None and estimate.skin_support < p.lost_skin_support:
+            weak = True
         self.weak_frames = self.weak_frames + 1 if weak else 0
         if self.weak_frames >= p.lost_frames:
             self.status = LOST
@@ -335,6 +350,8 @@ class TargetTracker:
     def _should_start(self, found: Hypothesis, estimate: TrackEstimate | None) -> bool:
         """Start on a hypothesis when there is no target, or when it is clearly better elsewhere."""
         p = self.parameters
+        if found.skin_support < p.lost_skin_support:
+            return False  # it would be a weak frame at once
         if self.status != TRACKING or estimate is None:
             return found.confidence >= p.init_confidence
         far = np.hypot(*(found.state[:2] - estimate.state[:2])) > 0.5 * estimate.state[2]

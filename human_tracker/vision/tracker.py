@@ -105,6 +105,7 @@ class TrackEstimate:
         effective_sample_size: 1 / Σ w² before resampling, in [1, P].
         box: ``(x, y, w, h)`` pixels, bounding box of the template's reference region.
         contour: ``(N, 2)`` image points of the template at ``state``.
+        skin_support: Weighted share of the contour's interior samples on skin (0 without skin).
     """
 
     state: np.ndarray
@@ -114,6 +115,7 @@ class TrackEstimate:
     effective_sample_size: float
     box: tuple[float, float, float, float]
     contour: np.ndarray
+    skin_support: float = 0.0
 
 
 def state_from_box(box: tuple[float, float, float, float], template: ContourTemplate) -> np.ndarray:
@@ -214,6 +216,7 @@ class ContourTracker:
             covariance=weighted_covariance(self.particles, weights),
             confidence=float(weights @ fit.matched) / self.template.num_points,
             motion_support=float(weights @ fit.moving) / self.template.num_points,
+            skin_support=0.0 if fit.skin is None else float(weights @ fit.skin),
             effective_sample_size=effective_sample_size(weights),
             box=box_from_state(state, self.template),
             contour=transform_points(self.template.points, state),
@@ -244,7 +247,7 @@ class ContourTracker:
         )
         if skin is None:
             return fit
-        colour = colour_costs(
+        colour, interior_skin = colour_costs(
             skin,
             states,
             self.template.points,
@@ -252,7 +255,7 @@ class ContourTracker:
             interior_weight=params.interior_weight,
             depth=params.colour_depth,
         )
-        return fit._replace(costs=fit.costs + params.miss_penalty * colour)
+        return fit._replace(costs=fit.costs + params.miss_penalty * colour, skin=interior_skin)
 
     def _resize(self, count: int) -> None:
         """Change the particle count at run time by resampling the current cloud uniformly."""

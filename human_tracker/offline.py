@@ -26,7 +26,7 @@ from human_tracker.io.images import to_mono8
 from human_tracker.io.sequences import open_sequence
 from human_tracker.vision.background import BackgroundModel
 from human_tracker.vision.optical_flow import OpticalFlow
-from human_tracker.vision.skin import SkinSegmenter, default_skin_model
+from human_tracker.vision.skin import SkinSegmenter, default_skin_model, has_colour
 from human_tracker.vision.target import TargetParameters, TargetTracker, parameters_for
 from human_tracker.vision.templates import make_template
 from human_tracker.vision.tracker import TrackerParameters
@@ -128,7 +128,7 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
                 else None
             )
             skin = None
-            if segmenter is not None and frame.image.ndim == 3:
+            if segmenter is not None and has_colour(frame.image):
                 skin = segmenter.segment(frame.image)
             elif segmenter is not None:
                 grey_frames += 1

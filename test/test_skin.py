@@ -17,6 +17,7 @@ from human_tracker.vision.skin import (
     SkinSegmenter,
     candidate_cells,
     default_skin_model,
+    has_colour,
     histogram_modes,
     merge_cells,
     ohta,
@@ -39,6 +40,13 @@ def test_ohta_components_by_hand() -> None:
     np.testing.assert_allclose(grey[..., 1:], 0.0)  # a grey level has no chromaticity
     with pytest.raises(ValueError, match='B, G, R'):
         ohta(np.zeros((4, 4), dtype=np.uint8))
+
+
+def test_grey_frames_have_no_colour() -> None:
+    grey = np.full((4, 4, 3), 90, dtype=np.uint8)
+    assert not has_colour(grey) and not has_colour(grey[..., 0])
+    grey[0, 0] = SKIN_BGR
+    assert has_colour(grey)
 
 
 def test_mahalanobis_distance_by_hand() -> None:

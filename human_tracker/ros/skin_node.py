@@ -20,7 +20,7 @@ from std_srvs.srv import Trigger
 from human_tracker.ros.common import RESULT_QOS, declare
 from human_tracker.ros.image_conversion import array_to_image
 from human_tracker.ros.stage import ImageStage, ParameterSpec, spin_node, stamp_ns
-from human_tracker.vision.skin import SkinModel, SkinParameters, SkinSegmenter, default_skin_model
+from human_tracker.vision.skin import SkinModel, SkinParameters, SkinSegmenter, default_skin_model, has_colour
 
 __all__ = ['SKIN_PARAMETERS', 'SkinNode', 'main']
 
@@ -104,7 +104,7 @@ class SkinNode(ImageStage):
 
     def handle_frame(self, image: np.ndarray, header: Any) -> np.ndarray:
         """Skin labels of one frame, published under ``header``."""
-        if np.array_equal(image[..., 0], image[..., 1]) and np.array_equal(image[..., 1], image[..., 2]):
+        if not has_colour(image):
             # A grey-level camera has no chromaticity: say so, and publish empty labels so
             # that a tracker waiting for this frame's skin labels is not held up.
             self.grey_frames += 1

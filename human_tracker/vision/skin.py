@@ -37,6 +37,7 @@ __all__ = [
     'SkinSegmenter',
     'candidate_cells',
     'default_skin_model',
+    'has_colour',
     'histogram_modes',
     'merge_cells',
     'ohta',
@@ -63,6 +64,17 @@ def ohta(image: np.ndarray) -> np.ndarray:
         raise ValueError(f'expected B, G, R in the last axis, got shape {bgr.shape}')
     # One linear map per pixel (rows: I1, I2, I3; columns: B, G, R).
     return (bgr.reshape(-1, 3) @ _OHTA.T).reshape(bgr.shape)
+
+
+def has_colour(image: np.ndarray) -> bool:
+    """Whether an image carries chromaticity: three channels that are not all equal.
+
+    A grey-level camera's frames converted to BGR have equal channels; no skin can be found
+    in them.
+    """
+    if image.ndim != 3 or image.shape[2] != 3:
+        return False
+    return not (np.array_equal(image[..., 0], image[..., 1]) and np.array_equal(image[..., 1], image[..., 2]))
 
 
 @dataclass(frozen=True)
@@ -334,15 +346,22 @@ def histogram_modes(
         ``(B,) int64``: the mode of each bin, 0 for the highest peak, 1 for the next, ...;
         ``max_peaks`` for bins in no mode.
     """
-    smooth = np.asarray(histogram, dtype=np.float64)[None, :]
+    return _row_modes(np.asarray(histogram)[None, :], smoothing, peak_fraction, support_fraction, max_peaks)[0]
+
+
+def _row_modes(
+    histograms: np.ndarray, smoothing: float, peak_fraction: float, support_fraction: float, max_peaks: int
+) -> np.ndarray:
+    """:func:`histogram_modes` of each row of ``(R, B)`` histograms."""
+    smooth = np.asarray(histograms, dtype=np.float64)
     if smoothing > 0:
         smooth = gaussian_filter1d(smooth, smoothing, axis=1, mode='constant')
-    return _modes(smooth, peak_fraction, support_fraction, max_peaks)[0]
+    return _modes(smooth, peak_fraction, support_fraction, max_peaks)
 
 
 @numba.njit(cache=True, nogil=True)
 def _modes(smooth: np.ndarray, peak_fraction: float, support_fraction: float, max_peaks: int) -> np.ndarray:
-    """:func:`histogram_modes` for each row of ``(R, B)`` smoothed histograms."""
+    """The modes of each row of ``(R, B)`` smoothed histograms (see :func:`histogram_modes`)."""
     rows, bins = smooth.shape
     modes = np.full((rows, bins), max_peaks, dtype=np.int64)
     for r in range(rows):
@@ -371,15 +390,21 @@ def _modes(smooth: np.ndarray, peak_fraction: float, support_fraction: float, ma
 
 
 @numba.njit(cache=True, nogil=True)
+def _ohta_pixel(pixel: np.ndarray) -> tuple[float, float, float]:
+    """I1, I2, I3 of one BGR pixel (as :func:`ohta`)."""
+    b, g, r = float(pixel[0]), float(pixel[1]), float(pixel[2])
+    return (r + g + b) / 3.0, (r - b) / 2.0, (2.0 * g - r - b) / 4.0
+
+
+@numba.njit(cache=True, nogil=True)
 def _pixel_bins(pixel: np.ndarray, bins: int) -> tuple[int, int, int]:
     """Histogram bins of a BGR pixel's I1, I2, I3 (ranges [0, 255], [-127.5, 127.5] twice)."""
-    b, g, r = float(pixel[0]), float(pixel[1]), float(pixel[2])
-    values = ((r + g + b) / 3.0, (r - b) / 2.0 + 127.5, (2.0 * g - r - b) / 4.0 + 127.5)
+    i1, i2, i3 = _ohta_pixel(pixel)
     scale = bins / 255.0
     return (
-        min(int(values[0] * scale), bins - 1),
-        min(int(values[1] * scale), bins - 1),
-        min(int(values[2] * scale), bins - 1),
+        min(int(i1 * scale), bins - 1),
+        min(int((i2 + 127.5) * scale), bins - 1),
+        min(int((i3 + 127.5) * scale), bins - 1),
     )
 
 
@@ -420,9 +445,7 @@ def _cluster_statistics(
             m = lookup[r - 1]
             cluster = (r - 1) * per_mode**3 + (m[0, b1] * per_mode + m[1, b2]) * per_mode + m[2, b3]
             clusters[v, u] = cluster
-            b, g, red = float(image[v, u, 0]), float(image[v, u, 1]), float(image[v, u, 2])
-            i2 = (red - b) / 2.0
-            i3 = (2.0 * g - red - b) / 4.0
+            _, i2, i3 = _ohta_pixel(image[v, u])
             n[cluster] += 1.0
             sums[cluster, 0] += i2
             sums[cluster, 1] += i3
@@ -461,9 +484,8 @@ def segment_skin(
     extent = (cells.shape[1] * p.cell_size, cells.shape[0] * p.cell_size)
     region[: extent[1], : extent[0]] = cv2.resize(grown, extent, interpolation=cv2.INTER_NEAREST)
     histograms = _region_histograms(image, region, count, p.histogram_bins).reshape(count * 3, -1)
-    if p.histogram_smoothing > 0:
-        histograms = gaussian_filter1d(histograms, p.histogram_smoothing, axis=1, mode='constant')
-    lookup = _modes(histograms, p.peak_fraction, p.support_fraction, p.max_peaks).reshape(count, 3, -1)
+    lookup = _row_modes(histograms, p.histogram_smoothing, p.peak_fraction, p.support_fraction, p.max_peaks)
+    lookup = lookup.reshape(count, 3, -1)
     # A pixel's cluster: its region and its mode in each of I1, I2, I3 (max_peaks + 1 each).
     clusters, n, sums, squares = _cluster_statistics(image, region, lookup, p.histogram_bins, p.max_peaks + 1)
     populated = n >= p.min_cluster_pixels

@@ -226,24 +226,25 @@ def test_params_file_loads_and_gains_change_at_run_time(tmp_path) -> None:
 
 
 @pytest.mark.parametrize(
-    ('parameter', 'reason'),
+    ('node', 'parameter', 'reason'),
     [
-        ('image_transport:=carrier_pigeon', "image_transport must be 'raw' or 'compressed'"),
-        ('num_particles:=-5', 'num_particles'),
-        ('num_particles:=many', 'num_particles'),
-        ('search_halfwidth:=0.0', 'search_halfwidth'),
-        ('target:=elbow', "unknown target 'elbow'"),
-        ('template_file:=/nonexistent/template.json', 'cannot load template'),
-        ('motion_mode:=telepathy', 'motion_mode must be one of'),
+        ('tracker_node', 'image_transport:=carrier_pigeon', "image_transport must be 'raw' or 'compressed'"),
+        ('tracker_node', 'num_particles:=-5', 'num_particles'),
+        ('tracker_node', 'num_particles:=many', 'num_particles'),
+        ('tracker_node', 'search_halfwidth:=0.0', 'search_halfwidth'),
+        ('tracker_node', 'target:=elbow', "unknown target 'elbow'"),
+        ('tracker_node', 'template_file:=/nonexistent/template.json', 'cannot load template'),
+        ('tracker_node', 'motion_mode:=telepathy', 'motion_mode must be one of'),
+        ('tracker_node', 'interior_weight:=0.5', 'interior_weight'),
+        ('skin_node', 'model_file:=/nonexistent/skin.json', 'cannot load skin model'),
+        ('skin_node', 'cell_size:=1', 'cell_size'),
     ],
 )
-def test_nonsense_parameters_at_start_are_refused_with_a_reason(tmp_path, parameter: str, reason: str) -> None:
-    tracker = NodeProcess(
-        'human_tracker.ros.tracker_node', ['--ros-args', '-p', parameter], environment(), tmp_path / 'tracker.log'
-    )
-    assert tracker.start().wait(60.0) == 2, tracker.output()
-    assert reason in tracker.output()
-    assert 'Traceback' not in tracker.output()
+def test_nonsense_parameters_at_start_are_refused(tmp_path, node: str, parameter: str, reason: str) -> None:
+    process = NodeProcess(f'human_tracker.ros.{node}', ['--ros-args', '-p', parameter], environment(), tmp_path / 'log')
+    assert process.start().wait(60.0) == 2, process.output()
+    assert reason in process.output()
+    assert 'Traceback' not in process.output()
 
 
 def test_a_looping_replay_starts_the_tracker_over(tmp_path, head_bag) -> None:

@@ -320,6 +320,7 @@ class TrackerNode(ImageStage):
                 result.status
                 if estimate is None
                 else f'{result.status} conf {estimate.confidence:.2f} motion {estimate.motion_support:.2f}'
+                f' skin {estimate.skin_support:.2f}'
             )
             debug = annotate(
                 image,
@@ -365,6 +366,7 @@ class TrackerNode(ImageStage):
         if result is not None and result.estimate is not None:
             extra['confidence'] = f'{result.estimate.confidence:.3f}'
             extra['motion_support'] = f'{result.estimate.motion_support:.3f}'
+            extra['skin_support'] = f'{result.estimate.skin_support:.3f}'
             extra['effective_sample_size'] = f'{result.estimate.effective_sample_size:.1f}'
         return self.tracker.status, extra
 

@@ -24,12 +24,13 @@ from human_tracker.offline import TrackOptions, read_poses, track_sequence
 from human_tracker.ros.processes import NodeProcess
 from human_tracker.scenes.generator import SCENES
 from human_tracker.vision.camera import default_camera_matrix
-from human_tracker.vision.templates import fit_state, head_and_shoulders, open_hand
+from human_tracker.vision.templates import ContourTemplate, fit_state, head_and_shoulders, open_hand
 from human_tracker.vision.tracker import box_from_state
 
 
-def _boxes(collector, frames) -> list:
-    template = head_and_shoulders()
+def _boxes(collector, frames, template: ContourTemplate | None = None) -> list:
+    """The reference boxes of the published contours, by frame (None where none was published)."""
+    template = template or head_and_shoulders()
     boxes = []
     for frame in frames:
         contour = collector.contours.get(frame.stamp_ns)
@@ -145,11 +146,7 @@ def test_hand_chain_with_skin_node_in_separate_processes(tmp_path) -> None:
     assert float(diagnostics['skin_support']) > 0.7  # the contour's interior is on the hand's skin
     offline = track_sequence(bag, tmp_path / 'offline', TrackOptions(target='hand', video=False, progress=False))
     core = read_poses(tmp_path / 'offline' / 'poses.csv')
-    hand = open_hand()
-    over_dds = []
-    for frame in frames:
-        contour = collector.contours.get(frame.stamp_ns)
-        over_dds.append(None if contour is None else box_from_state(fit_state(hand.points, contour), hand))
+    over_dds = _boxes(collector, frames, open_hand())
     summary = summarise(over_dds, [f.ground_truth for f in frames])
     print(f'hand over DDS: {summary}; offline: {offline["precision_20px"]}')
     assert summary['precision_20px'] >= 0.9
@@ -167,12 +164,7 @@ def test_pipeline_follows_a_hand_with_the_skin_stage_in_process(tmp_path) -> Non
     pipeline = NodeProcess('human_tracker.ros.pipeline', args, environment(), tmp_path / 'pipeline.log')
     collector = replay_and_collect(pipeline, bag, COMPRESSED_CAMERA_TOPIC, tmp_path, len(frames))
     assert 'ready: skin segmentation' in pipeline.output()
-    hand = open_hand()
-    boxes = [
-        None if (c := collector.contours.get(f.stamp_ns)) is None else box_from_state(fit_state(hand.points, c), hand)
-        for f in frames
-    ]
-    summary = summarise(boxes, [f.ground_truth for f in frames])
+    summary = summarise(_boxes(collector, frames, open_hand()), [f.ground_truth for f in frames])
     print(f'pipeline, target hand: {summary}')
     assert summary['precision_20px'] >= 0.9
 

@@ -19,7 +19,7 @@ from std_srvs.srv import Trigger
 
 from human_tracker.ros.common import RESULT_QOS, declare
 from human_tracker.ros.image_conversion import array_to_image
-from human_tracker.ros.stage import ImageStage, ParameterSpec, spin_node, stamp_ns
+from human_tracker.ros.stage import ImageStage, ParameterSpec, spin_node
 from human_tracker.vision.skin import SkinModel, SkinParameters, SkinSegmenter, default_skin_model, has_colour
 
 __all__ = ['SKIN_PARAMETERS', 'SkinNode', 'main']
@@ -73,7 +73,7 @@ class SkinNode(ImageStage):
         self.segmenter = SkinSegmenter(model, parameters, rate, drift)
         self.grey_frames = 0
         self.adaptations = 0
-        self.contour: tuple[int, np.ndarray] | None = None
+        self.contour: np.ndarray | None = None  # the tracker's latest contour, pixels
         self.skin_pub = self.create_publisher(Image, 'skin', RESULT_QOS)
         if rate > 0:
             self.create_subscription(PolygonStamped, 'contour', self._on_contour, RESULT_QOS)
@@ -100,7 +100,7 @@ class SkinNode(ImageStage):
     def _on_contour(self, msg: PolygonStamped) -> None:
         points = np.array([[p.x, p.y] for p in msg.polygon.points], dtype=np.float64)
         if points.shape[0] >= 3 and np.isfinite(points).all():
-            self.contour = (stamp_ns(msg.header), points)
+            self.contour = points
 
     def handle_frame(self, image: np.ndarray, header: Any) -> np.ndarray:
         """Skin labels of one frame, published under ``header``."""
@@ -115,7 +115,7 @@ class SkinNode(ImageStage):
             if self.contour is not None:
                 # The latest contour (a frame or two old) marks where the target is.
                 region = np.zeros(image.shape[:2], dtype=np.uint8)
-                cv2.fillPoly(region, [np.round(self.contour[1]).astype(np.int32)], 255)
+                cv2.fillPoly(region, [np.round(self.contour).astype(np.int32)], 255)
                 self.adaptations += int(self.segmenter.adapt(image, region, skin))
         self.counters.processed += 1
         self.skin_pub.publish(array_to_image(skin, 'mono8', header))

@@ -28,6 +28,8 @@ import cv2
 import numba
 import numpy as np
 
+from human_tracker.vision.morphology import disk
+
 __all__ = ['BackgroundParameters', 'BackgroundModel', 'background_decision']
 
 
@@ -137,10 +139,6 @@ def _decide_and_update(
             variance[v, u] = min(max(s2, min_variance), max_variance)
 
 
-def _disk(radius: int) -> np.ndarray:
-    return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius + 1, 2 * radius + 1))
-
-
 @dataclass
 class BackgroundModel:
     """The dynamic reference frame m and noise variance σ² of every pixel.
@@ -190,9 +188,9 @@ class BackgroundModel:
             np.float32(p.max_variance),
         )
         if p.opening_radius:
-            mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, _disk(p.opening_radius))
+            mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, disk(p.opening_radius))
         if p.closing_radius:
-            mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, _disk(p.closing_radius))
+            mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, disk(p.closing_radius))
         return mask
 
     def reference_frame(self) -> np.ndarray | None:

@@ -139,6 +139,19 @@ def _angle_apart(a_degrees: float, b_degrees: float) -> float:
     return min(d, 180.0 - d)
 
 
+@numba.njit(cache=True, fastmath=True, nogil=True, inline='always')
+def _placed(
+    x: float, y: float, scale: float, c: float, s: float, point: np.ndarray, normal: np.ndarray
+) -> tuple[float, float, float, float]:
+    """A template point and its unit normal in the image for the state (x, y, scale, θ), c = cos θ, s = sin θ."""
+    return (
+        x + scale * (c * point[0] - s * point[1]),
+        y + scale * (s * point[0] + c * point[1]),
+        c * normal[0] - s * normal[1],
+        s * normal[0] + c * normal[1],
+    )
+
+
 @numba.njit(cache=True, fastmath=True, nogil=True, parallel=True)
 def _contour_costs(
     edges: np.ndarray,
@@ -169,10 +182,7 @@ def _contour_costs(
         hits = 0
         moving_hits = 0
         for j in range(num_points):
-            px = x + scale * (c * points[j, 0] - s * points[j, 1])
-            py = y + scale * (s * points[j, 0] + c * points[j, 1])
-            nx = c * normals[j, 0] - s * normals[j, 1]
-            ny = s * normals[j, 0] + c * normals[j, 1]
+            px, py, nx, ny = _placed(x, y, scale, c, s, points[j], normals[j])
             normal_degrees = np.degrees(np.arctan2(ny, nx)) % 180.0
             tolerance_degrees = np.degrees(orientation_tolerance)
             found = -1.0
@@ -301,10 +311,7 @@ def _colour_costs(
         total = 0.0
         skin_inside = 0.0
         for j in range(num_points):
-            px = x + scale * (c * points[j, 0] - s * points[j, 1])
-            py = y + scale * (s * points[j, 0] + c * points[j, 1])
-            nx = c * normals[j, 0] - s * normals[j, 1]
-            ny = s * normals[j, 0] + c * normals[j, 1]
+            px, py, nx, ny = _placed(x, y, scale, c, s, points[j], normals[j])
             inside_not_skin = 0.0
             outside_skin = 0.0
             for k in range(1, samples + 1):

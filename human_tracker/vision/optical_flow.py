@@ -22,6 +22,8 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from human_tracker.vision.morphology import disk
+
 __all__ = [
     'FLOW_METHODS',
     'FlowParameters',
@@ -78,10 +80,6 @@ def texture_energy(gray: np.ndarray, sigma: float = 2.0) -> np.ndarray:
     return cv2.GaussianBlur(gx * gx + gy * gy, (0, 0), sigma)
 
 
-def _disk(radius: int) -> np.ndarray:
-    return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius + 1, 2 * radius + 1))
-
-
 def motion_mask(
     flow: np.ndarray,
     min_magnitude: float = 0.5,
@@ -110,9 +108,9 @@ def motion_mask(
     if median_size > 1:
         mask = cv2.medianBlur(mask, median_size | 1)
     if opening_radius:
-        mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, _disk(opening_radius))
+        mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, disk(opening_radius))
     if closing_radius:
-        mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, _disk(closing_radius))
+        mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, disk(closing_radius))
     return mask
 
 

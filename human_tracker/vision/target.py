@@ -36,6 +36,7 @@ import numpy as np
 
 from human_tracker.vision.initialisation import blobs, moments_state, state_from_scan
 from human_tracker.vision.measurement import edge_map
+from human_tracker.vision.morphology import disk
 from human_tracker.vision.particle_filter import gaussian_cloud
 from human_tracker.vision.templates import ContourTemplate
 from human_tracker.vision.tracker import ContourTracker, TrackerParameters, TrackEstimate
@@ -256,9 +257,7 @@ class TargetTracker:
         if p.region_closing:
             # Join the silhouette's moving parts into one region; the likelihood keeps the
             # tight mask so that still edges next to a moving person do not count as moving.
-            region = cv2.morphologyEx(
-                region, cv2.MORPH_CLOSE, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * p.region_closing + 1,) * 2)
-            )
+            region = cv2.morphologyEx(region, cv2.MORPH_CLOSE, disk(p.region_closing))
         if p.init_method == 'moments':
             return [moments_state(b, self.template) for b in blobs(region, p.min_blob_area, p.hypothesis_blobs)]
         start = state_from_scan(region, self.template, upright_angle=p.upright_angle, min_area=p.min_blob_area)
@@ -319,7 +318,7 @@ class TargetTracker:
         elif motion is not None and p.motion_mode == 'weighted':
             likelihood_motion = motion
         if skin is not None and p.colour_mode == 'mask':
-            near_skin = cv2.dilate(skin, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * p.skin_margin + 1,) * 2))
+            near_skin = cv2.dilate(skin, disk(p.skin_margin))
             edges = np.where(near_skin > 0, edges, 0).astype(np.uint8)
         elif skin is not None and p.colour_mode == 'weighted':
             likelihood_skin = skin

@@ -253,7 +253,7 @@ def run_nodes(
 
     A ValueError or an rclpy parameter error while building or running (a parameter out of
     range or of the wrong type, a missing file) is logged with its reason and gives exit code
-    2, with no traceback.
+    2, with no traceback. Ctrl-C, even while the nodes are being built, exits with 0.
     """
     rclpy.init(args=args)
     nodes: list[Node] = []
@@ -272,6 +272,11 @@ def run_nodes(
     except (ValueError, ParameterException) as err:
         rclpy.logging.get_logger(name).error(f'cannot start: {err}')
         code = 2
+    except Exception:
+        if rclpy.ok():
+            raise
+        # Ctrl-C while the nodes were still being built: rclpy's signal handler shut the
+        # context down under them, and their next call failed. That is a clean stop.
     finally:
         # The order of rclpy.spin: detach the nodes from the executor before destroying them.
         for node in nodes:

@@ -172,19 +172,22 @@ def _contour_costs(
     num_points = points.shape[0]
     reach = int(np.ceil(search_halfwidth))
     miss = 2.0 * miss_penalty if use_motion else miss_penalty
+    tolerance_degrees = np.degrees(orientation_tolerance)
+    # A rotation by θ turns every normal by θ: one arctan2 per template point, not per particle.
+    template_degrees = np.degrees(np.arctan2(normals[:, 1], normals[:, 0]))
     for i in numba.prange(particles.shape[0]):
         x = particles[i, 0]
         y = particles[i, 1]
         scale = particles[i, 2]
         c = np.cos(particles[i, 3])
         s = np.sin(particles[i, 3])
+        turn_degrees = np.degrees(particles[i, 3])
         total = 0.0
         hits = 0
         moving_hits = 0
         for j in range(num_points):
             px, py, nx, ny = _placed(x, y, scale, c, s, points[j], normals[j])
-            normal_degrees = np.degrees(np.arctan2(ny, nx)) % 180.0
-            tolerance_degrees = np.degrees(orientation_tolerance)
+            normal_degrees = template_degrees[j] + turn_degrees
             found = -1.0
             zu = 0
             zv = 0

@@ -109,7 +109,7 @@ def background_decision(
     return squared < bound
 
 
-@numba.njit(cache=True, fastmath=True, nogil=True)
+@numba.njit(cache=True, fastmath=True, nogil=True, parallel=True)
 def _decide_and_update(
     frame: np.ndarray,
     mean: np.ndarray,
@@ -125,11 +125,11 @@ def _decide_and_update(
     :func:`background_decision` and the update); mask gets 255 on target pixels."""
     half_log_two_pi = 0.5 * np.log(2.0 * np.pi)
     height, width = frame.shape
-    for v in range(height):
+    for v in numba.prange(height):
         for u in range(width):
             m = mean[v, u]
             s2 = variance[v, u]
-            d = frame[v, u] - m
+            d = np.float32(frame[v, u]) - m
             bound = 2.0 * s2 * (log_n_over_lambda - half_log_two_pi - 0.5 * np.log(s2))
             is_background = d * d < bound
             mask[v, u] = 0 if is_background else 255
@@ -169,10 +169,11 @@ class BackgroundModel:
             ``(H, W) uint8`` foreground mask, 255 on target pixels, 0 on background.
         """
         p = self.parameters
-        frame = np.asarray(gray, dtype=np.float32)
+        # uint8 frames go to the kernel as they are: a float copy of the frame costs more than the test.
+        frame = np.asarray(gray)
         if self.mean is None or self.variance is None or self.mean.shape != frame.shape:
             # The first frame (or a new image size) is taken as background.
-            self.mean = frame.copy()
+            self.mean = frame.astype(np.float32)
             self.variance = np.full(frame.shape, p.initial_variance, dtype=np.float32)
             return np.zeros(frame.shape, dtype=np.uint8)
         mask = np.empty(frame.shape, dtype=np.uint8)

@@ -20,6 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import cv2
+import numba
 import numpy as np
 
 from human_tracker.vision.morphology import disk
@@ -80,6 +81,21 @@ def texture_energy(gray: np.ndarray, sigma: float = 2.0) -> np.ndarray:
     return cv2.GaussianBlur(gx * gx + gy * gy, (0, 0), sigma)
 
 
+@numba.njit(cache=True, fastmath=True, nogil=True, parallel=True)
+def _moving(
+    flow: np.ndarray, texture: np.ndarray, gate: bool, min_magnitude: float, min_texture: float, mask: np.ndarray
+) -> None:
+    """255 where |flow| > min_magnitude (and, with ``gate``, texture >= min_texture), else 0."""
+    threshold = min_magnitude * min_magnitude
+    height, width = mask.shape
+    for v in numba.prange(height):
+        for u in range(width):
+            fx = flow[v, u, 0]
+            fy = flow[v, u, 1]
+            moving = fx * fx + fy * fy > threshold and (not gate or texture[v, u] >= min_texture)
+            mask[v, u] = 255 if moving else 0
+
+
 def motion_mask(
     flow: np.ndarray,
     min_magnitude: float = 0.5,
@@ -101,10 +117,11 @@ def motion_mask(
         opening_radius: Radius of the morphological opening (0: none).
         closing_radius: Radius of the closing applied last (0: none).
     """
-    moving = np.hypot(flow[..., 0], flow[..., 1]) > min_magnitude
-    if texture is not None and min_texture > 0:
-        moving &= texture >= min_texture
-    mask = np.where(moving, 255, 0).astype(np.uint8)
+    flow = np.ascontiguousarray(flow, dtype=np.float32)
+    gate = texture is not None and min_texture > 0
+    energy = np.ascontiguousarray(texture if gate else flow[..., 0], dtype=np.float32)
+    mask = np.empty(flow.shape[:2], dtype=np.uint8)
+    _moving(flow, energy, gate, np.float32(min_magnitude), np.float32(min_texture), mask)
     if median_size > 1:
         mask = cv2.medianBlur(mask, median_size | 1)
     if opening_radius:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Callable
 
 import cv2
 import numpy as np
@@ -21,6 +22,7 @@ from human_tracker.demo import node_arguments
 from human_tracker.evaluation.metrics import summarise
 from human_tracker.io.bags import CAMERA_TOPIC, COMPRESSED_CAMERA_TOPIC, read_frames, write_scene_bag
 from human_tracker.offline import TrackOptions, read_poses, track_sequence
+from human_tracker.ros.collector import PoseCollector
 from human_tracker.ros.processes import NodeProcess
 from human_tracker.scenes.generator import SCENES
 from human_tracker.vision.camera import default_camera_matrix
@@ -242,17 +244,12 @@ def test_nonsense_parameters_at_start_are_refused(tmp_path, node: str, parameter
 
 def test_a_looping_replay_starts_the_tracker_over(tmp_path, head_bag) -> None:
     """bag_play --loop: stamps jump back at each loop; the nodes reset and go on, nothing is skipped."""
-    from human_tracker.io.bags import write_bag
-
-    short = [
-        (f.stamp_ns, cv2.imdecode(f.message.data, cv2.IMREAD_COLOR), f.ground_truth)
-        for f in list(read_frames(head_bag))[:20]
-    ]
-    bag = write_bag(tmp_path / 'short', short)
+    frames = list(read_frames(head_bag))[:20]
+    bag = write_bag_for_test(tmp_path, frames)
     env = environment()
     tracker = NodeProcess(
         'human_tracker.ros.tracker_node',
-        node_arguments(COMPRESSED_CAMERA_TOPIC, True, short[0][2]),
+        node_arguments(COMPRESSED_CAMERA_TOPIC, True, frames[0].ground_truth),
         env,
         tmp_path / 'tracker.log',
     )
@@ -262,21 +259,12 @@ def test_a_looping_replay_starts_the_tracker_over(tmp_path, head_bag) -> None:
         env,
         tmp_path / 'bag_play.log',
     )
-    with collecting() as (collector, executor):
-        try:
-            tracker.start()
-            assert collector.wait_for_publisher(executor, 60.0), tracker.output()
-            player.start()
-            deadline = time.monotonic() + 30.0
-            diagnostics: dict[str, str] = {}
-            while time.monotonic() < deadline:
-                executor.spin_once(timeout_sec=0.05)
-                diagnostics = collector.diagnostics.get('/tracker_node', {})
-                if int(diagnostics.get('time_resets', 0)) >= 2 and int(diagnostics.get('frames_processed', 0)) >= 50:
-                    break
-        finally:
-            player.stop()
-            assert tracker.stop() == 0
+
+    def looped_twice(collector: PoseCollector) -> bool:
+        diagnostics = collector.diagnostics.get('/tracker_node', {})
+        return int(diagnostics.get('time_resets', 0)) >= 2 and int(diagnostics.get('frames_processed', 0)) >= 50
+
+    diagnostics = _run_tracker_with_player(tracker, player, looped_twice).diagnostics.get('/tracker_node', {})
     print(f'tracker_node diagnostics after looping: {diagnostics}')
     assert int(diagnostics['time_resets']) >= 2
     assert int(diagnostics['frames_processed']) >= 50
@@ -297,20 +285,32 @@ def test_use_sim_time_with_the_bag_clock(tmp_path, head_bag) -> None:
         env,
         tmp_path / 'play.log',
     )
+
+    def all_tracked(collector: PoseCollector) -> bool:
+        processed = collector.diagnostics.get('/tracker_node', {}).get('frames_processed')
+        return len(collector.poses) >= len(frames) and processed == str(len(frames))
+
+    collector = _run_tracker_with_player(tracker, player, all_tracked)
+    assert sorted(collector.poses) == [f.stamp_ns for f in frames]
+    assert collector.diagnostics.get('/tracker_node', {}).get('frames_processed') == str(len(frames))
+
+
+def _run_tracker_with_player(
+    tracker: NodeProcess, player: NodeProcess, done: Callable[[PoseCollector], bool], timeout: float = 30.0
+) -> PoseCollector:
+    """Start the tracker, then the player once the tracker publishes; collect until ``done`` or ``timeout`` s."""
     with collecting() as (collector, executor):
         try:
             tracker.start()
             assert collector.wait_for_publisher(executor, 60.0), tracker.output()
             player.start()
-            deadline = time.monotonic() + 30.0
-            while len(collector.poses) < len(frames) and time.monotonic() < deadline:
+            deadline = time.monotonic() + timeout
+            while not done(collector) and time.monotonic() < deadline:
                 executor.spin_once(timeout_sec=0.05)
-            diagnostics = collector.spin_until_diagnostics(executor, '/tracker_node', 5.0)
         finally:
             player.stop()
             assert tracker.stop() == 0
-    assert sorted(collector.poses) == [f.stamp_ns for f in frames]
-    assert diagnostics.get('frames_processed') == str(len(frames))
+    return collector
 
 
 def write_bag_for_test(tmp_path, frames) -> object:

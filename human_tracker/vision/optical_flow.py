@@ -119,7 +119,8 @@ def motion_mask(
     """
     flow = np.ascontiguousarray(flow, dtype=np.float32)
     gate = texture is not None and min_texture > 0
-    energy = np.ascontiguousarray(texture if gate else flow[..., 0], dtype=np.float32)
+    # Without the gate the kernel never reads the texture: a placeholder, not a copy of the frame.
+    energy = np.ascontiguousarray(texture, dtype=np.float32) if gate else np.zeros((1, 1), np.float32)
     mask = np.empty(flow.shape[:2], dtype=np.uint8)
     _moving(flow, energy, gate, np.float32(min_magnitude), np.float32(min_texture), mask)
     if median_size > 1:

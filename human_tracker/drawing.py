@@ -39,11 +39,13 @@ def annotate(
         truth: Ground-truth box, pixels (magenta).
         label: Text written in the top-left corner.
         closed: Draw the contour as a closed curve.
-        motion: ``(H, W)`` motion cue (foreground or moving pixels), tinted red.
+        motion: Motion cue (foreground or moving pixels) at any size, tinted red.
     """
     out = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR) if image.ndim == 2 else image.copy()
-    if motion is not None and motion.shape == out.shape[:2]:
-        moving = motion > 0
+    if motion is not None:
+        # A cue may come at the working resolution: shown at the frame's.
+        size = (out.shape[1], out.shape[0])
+        moving = cv2.resize(motion, size, interpolation=cv2.INTER_NEAREST) > 0
         out[moving] = (0.6 * out[moving] + (0, 0, 100)).astype(np.uint8)
     if particles is not None:
         for x, y in np.round(particles[:, :2]).astype(np.int32):

@@ -26,6 +26,7 @@ from human_tracker.io.images import to_mono8
 from human_tracker.io.sequences import open_sequence
 from human_tracker.vision.background import BackgroundModel
 from human_tracker.vision.optical_flow import OpticalFlow
+from human_tracker.vision.resolution import to_working, working_scale
 from human_tracker.vision.skin import SkinSegmenter, default_skin_model, has_colour
 from human_tracker.vision.target import TargetParameters, TargetTracker, parameters_for
 from human_tracker.vision.templates import make_template
@@ -120,16 +121,20 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
                 continue
             start = time.perf_counter()
             gray = to_mono8(frame.image)
+            # The cues are computed at the working resolution, as the tracker fits there.
+            working = to_working(gray, target_parameters.working_width)
             motion = (
-                background.apply(gray)
+                background.apply(working)
                 if options.cue == 'background'
-                else flow.apply(gray)[1]
+                else flow.apply(working)[1]
                 if options.cue == 'flow'
                 else None
             )
             skin = None
             if segmenter is not None and has_colour(frame.image):
-                skin = segmenter.segment(frame.image)
+                width = target_parameters.working_width
+                scale = working_scale(frame.image.shape[1], width)
+                skin = segmenter.segment(to_working(frame.image, width), scale)
             elif segmenter is not None:
                 grey_frames += 1
             if frame.index == 0 and options.init is not None:

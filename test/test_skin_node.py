@@ -17,7 +17,8 @@ from std_msgs.msg import Header
 from human_tracker.ros.image_conversion import array_to_image, image_to_array
 from human_tracker.ros.skin_node import SkinNode
 from human_tracker.scenes.generator import SCENES, render_scene
-from human_tracker.vision.skin import default_skin_model, segment_skin
+from human_tracker.vision.resolution import to_working
+from human_tracker.vision.skin import SkinSegmenter, default_skin_model
 
 RELIABLE = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
 
@@ -68,9 +69,13 @@ def test_skin_node_labels_colour_frames_and_reports_grey_ones() -> None:
         source.destroy_node()
         rclpy.try_shutdown()
     assert sorted(received) == list(range(len(frames) + 1))
-    # The first frame is labelled by the learnt classes, exactly as the core does.
-    np.testing.assert_array_equal(received[0], segment_skin(frames[0].image, default_skin_model()))
-    assert np.count_nonzero(received[0] & frames[0].skin) > 0.85 * np.count_nonzero(frames[0].skin)
+    # The first frame is labelled by the learnt classes, exactly as the core does, at the
+    # working resolution (half the 640-pixel frame), with the parameters' lengths scaled.
+    width = 320  # the node's default working_width
+    expected = SkinSegmenter(default_skin_model()).segment(to_working(frames[0].image, width), 0.5)
+    np.testing.assert_array_equal(received[0], expected)
+    truth = to_working(frames[0].skin, width, mask=True)
+    assert np.count_nonzero(received[0] & truth) > 0.85 * np.count_nonzero(truth)
     assert extra['adaptations'] == len(frames)  # the skin inside the contour adapted the classes
     assert not received[len(frames)].any() and extra['frames_grey'] == 1 and state == 'OK'
 

@@ -13,6 +13,7 @@ from human_tracker.io.bags import read_frames
 from human_tracker.ros.image_conversion import message_to_bgr8, to_mono8
 from human_tracker.vision.background import BackgroundModel
 from human_tracker.vision.optical_flow import OpticalFlow
+from human_tracker.vision.resolution import to_working
 from human_tracker.vision.target import TargetParameters, TargetTracker
 from human_tracker.vision.templates import head_and_shoulders
 from human_tracker.vision.tracker import TrackerParameters
@@ -61,7 +62,9 @@ def track(
     background, flow = BackgroundModel(), OpticalFlow()
     boxes, truth, statuses = [], [], []
     for frame, gray in _frames(name):
-        motion = background.apply(gray) if cue == 'background' else flow.apply(gray)[1] if cue == 'flow' else None
+        # The cues at the working resolution, as the nodes compute them.
+        working = to_working(gray, tracker.parameters.working_width)
+        motion = background.apply(working) if cue == 'background' else flow.apply(working)[1] if cue == 'flow' else None
         if box and not tracker.filter.initialised and frame.ground_truth is not None:
             tracker.initialise_from_box(frame.ground_truth)
         result = tracker.process(gray, motion)

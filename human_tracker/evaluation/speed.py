@@ -16,8 +16,9 @@ from human_tracker.io.images import message_to_bgr8, to_mono8
 from human_tracker.vision.background import BackgroundModel
 from human_tracker.vision.measurement import edge_map
 from human_tracker.vision.optical_flow import OpticalFlow
+from human_tracker.vision.resolution import to_working, working_scale
 from human_tracker.vision.skin import SkinSegmenter, default_skin_model
-from human_tracker.vision.target import TargetTracker, parameters_for
+from human_tracker.vision.target import TargetParameters, TargetTracker, parameters_for
 from human_tracker.vision.templates import head_and_shoulders, open_hand
 from human_tracker.vision.tracker import ContourTracker, TrackerParameters
 
@@ -53,9 +54,10 @@ def stage_timings(
     Stages: ``conversion`` (raw Image message to BGR and grey), ``edges``, ``colour_edges``,
     ``background``, ``flow``, ``skin`` (§3.2 segmentation), ``particle_filter_<P>`` (one
     predict-weigh-resample step with P particles), ``pipeline`` (conversion + edges +
-    background + flow + the head tracker with 500 particles, motion-weighted) and
+    background + flow + the head tracker with 500 particles, motion-weighted, all at the
+    default working width; ``pipeline_full_size``: the same at full size) and
     ``hand_pipeline`` (conversion + background + skin + the hand tracker: colour edges and
-    the colour term), all on the same frames.
+    the colour term, at the working width), all on the same frames.
     """
     if scale != 1.0:
         frames = [cv2.resize(f, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA) for f in frames]
@@ -79,24 +81,36 @@ def stage_timings(
         tracker = ContourTracker(template, TrackerParameters(num_particles=particles, min_scale=24.0 * scale))
         tracker.initialise_from_box(boxes[0])
         results[f'particle_filter_{particles}'] = _median_ms(lambda i, t=tracker: t.step(edges[i]), count)
-    target = TargetTracker(template, TrackerParameters(num_particles=500, min_scale=24.0 * scale))
-    target.initialise_from_box(boxes[0])
-    cue, motion = BackgroundModel(), OpticalFlow()
-
-    def pipeline(i: int) -> object:
-        gray = to_mono8(message_to_bgr8(messages[i]))
-        mask = cue.apply(gray)
-        motion.apply(gray)
-        return target.process(gray, mask)
-
-    results['pipeline'] = _median_ms(pipeline, count)
-    hand = TargetTracker(open_hand(), TrackerParameters(min_scale=24.0 * scale), parameters_for('hand'))
+    filter_parameters = TrackerParameters(num_particles=500, min_scale=24.0 * scale)
+    for name, working_width in (('pipeline', TargetParameters().working_width), ('pipeline_full_size', 0)):
+        results[name] = _median_ms(_pipeline(messages, boxes[0], filter_parameters, working_width), count)
+    hand = TargetTracker(open_hand(), filter_parameters, parameters_for('hand'))
     hand.initialise_from_box(boxes[0])
-    hand_cue = BackgroundModel()
+    hand_cue, hand_width = BackgroundModel(), hand.parameters.working_width
 
     def hand_pipeline(i: int) -> object:
         image = message_to_bgr8(messages[i])
-        return hand.process(image, hand_cue.apply(to_mono8(image)), segmenter.segment(image))
+        working = to_working(image, hand_width)
+        skin = segmenter.segment(working, working_scale(image.shape[1], hand_width))
+        return hand.process(image, hand_cue.apply(to_mono8(working)), skin)
 
     results['hand_pipeline'] = _median_ms(hand_pipeline, count)
     return {k: round(v, 3) for k, v in results.items()}
+
+
+def _pipeline(
+    messages: list[_RawImage], box: tuple[float, float, float, float], parameters: TrackerParameters, working_width: int
+) -> Callable[[int], object]:
+    """One frame of the head pipeline as the ``pipeline`` node runs it, cues at ``working_width``."""
+    target = TargetTracker(head_and_shoulders(), parameters, TargetParameters(working_width=working_width))
+    target.initialise_from_box(box)
+    cue, motion = BackgroundModel(), OpticalFlow()
+
+    def run(i: int) -> object:
+        gray = to_mono8(message_to_bgr8(messages[i]))
+        working = to_working(gray, working_width)
+        mask = cue.apply(working)
+        motion.apply(working)
+        return target.process(gray, mask)
+
+    return run

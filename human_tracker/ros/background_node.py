@@ -14,10 +14,11 @@ import numpy as np
 from sensor_msgs.msg import Image
 from std_srvs.srv import Trigger
 
-from human_tracker.ros.common import RESULT_QOS
+from human_tracker.ros.common import RESULT_QOS, declare_working_width
 from human_tracker.ros.image_conversion import array_to_image, to_mono8
 from human_tracker.ros.stage import ImageStage, ParameterSpec, spin_node
 from human_tracker.vision.background import BackgroundModel, BackgroundParameters
+from human_tracker.vision.resolution import to_working
 
 __all__ = ['BACKGROUND_PARAMETERS', 'BackgroundNode', 'main']
 
@@ -55,6 +56,7 @@ class BackgroundNode(ImageStage):
         super().__init__('background_node', subscribe_image=subscribe_image, **kwargs)
         parameters = self.bind_parameters(BackgroundParameters(), BACKGROUND_PARAMETERS, self._apply)
         self.model = BackgroundModel(parameters)
+        self.working_width = declare_working_width(self)
         self.foreground_pub = self.create_publisher(Image, 'foreground', RESULT_QOS)
         self.background_pub = self.create_publisher(Image, 'background', RESULT_QOS)
         self.create_service(Trigger, '~/reset', self._on_reset)
@@ -75,7 +77,7 @@ class BackgroundNode(ImageStage):
 
     def handle_frame(self, image: np.ndarray, header: Any) -> np.ndarray:
         """Foreground mask of one frame, published under ``header``."""
-        mask = self.model.apply(to_mono8(image))
+        mask = self.model.apply(to_working(to_mono8(image), self.working_width))
         self.counters.processed += 1
         self.foreground_pub.publish(array_to_image(mask, 'mono8', header))
         if self.background_pub.get_subscription_count() > 0:

@@ -14,6 +14,8 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy, qos_profile_
 
 __all__ = [
     'declare',
+    'declare_working_width',
+    'WORKING_WIDTH_DESCRIPTION',
     'image_qos',
     'RESULT_QOS',
     'FrameCounters',
@@ -48,6 +50,17 @@ def declare(
                 FloatingPointRange(from_value=float(low), to_value=float(high), step=0.0)
             ]
     return node.declare_parameter(name, default, descriptor).value
+
+
+WORKING_WIDTH_DESCRIPTION = (
+    'Frames wider than this many pixels are reduced to it before processing (area averaging); masks are '
+    'published at that size. 0: full size. Give every stage the same value.'
+)
+
+
+def declare_working_width(node: Node) -> int:
+    """The ``working_width`` of a cue stage (see :mod:`human_tracker.vision.resolution`)."""
+    return declare(node, 'working_width', 320, WORKING_WIDTH_DESCRIPTION, low=0, high=100000, read_only=True)
 
 
 def image_qos(node: Node) -> QoSProfile:

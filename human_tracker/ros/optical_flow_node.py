@@ -17,10 +17,11 @@ import numpy as np
 from geometry_msgs.msg import Vector3Stamped
 from sensor_msgs.msg import Image
 
-from human_tracker.ros.common import RESULT_QOS, declare
+from human_tracker.ros.common import RESULT_QOS, declare, declare_working_width
 from human_tracker.ros.image_conversion import array_to_image, to_mono8
 from human_tracker.ros.stage import ImageStage, ParameterSpec, spin_node, stamp_ns
 from human_tracker.vision.optical_flow import FlowParameters, OpticalFlow
+from human_tracker.vision.resolution import to_working, working_scale
 
 __all__ = ['FLOW_PARAMETERS', 'OpticalFlowNode', 'main']
 
@@ -46,6 +47,7 @@ class OpticalFlowNode(ImageStage):
         super().__init__('optical_flow_node', subscribe_image=subscribe_image, **kwargs)
         parameters = self.bind_parameters(FlowParameters(), FLOW_PARAMETERS, self._apply)
         self.flow = OpticalFlow(parameters)
+        self.working_width = declare_working_width(self)
         self.max_rotation_age = declare(
             self,
             'angular_velocity_timeout',
@@ -75,13 +77,15 @@ class OpticalFlowNode(ImageStage):
     def handle_frame(self, image: np.ndarray, header: Any) -> np.ndarray:
         """Motion mask of one frame, published under ``header``."""
         gray = to_mono8(image)
+        scale = working_scale(gray.shape[1], self.working_width)
+        k = np.diag([scale, scale, 1.0]) @ self.intrinsics(gray.shape[1], gray.shape[0])
+        gray = to_working(gray, self.working_width)
         stamp = stamp_ns(header)
         dt = 0.0 if self.previous_stamp is None else (stamp - self.previous_stamp) / 1e9
         self.previous_stamp = stamp
         omega = None
         if self.angular_velocity is not None and abs(stamp - self.angular_velocity[0]) <= self.max_rotation_age * 1e9:
             omega = self.angular_velocity[1]
-        k = self.intrinsics(gray.shape[1], gray.shape[0])
         flow, mask = self.flow.apply(gray, camera_matrix=k, angular_velocity=omega, dt=max(dt, 0.0))
         self.counters.processed += 1
         self.motion_pub.publish(array_to_image(mask, 'mono8', header))

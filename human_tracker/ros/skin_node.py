@@ -17,9 +17,10 @@ from geometry_msgs.msg import PolygonStamped
 from sensor_msgs.msg import Image
 from std_srvs.srv import Trigger
 
-from human_tracker.ros.common import RESULT_QOS, declare
+from human_tracker.ros.common import RESULT_QOS, declare, declare_working_width
 from human_tracker.ros.image_conversion import array_to_image
 from human_tracker.ros.stage import ImageStage, ParameterSpec, spin_node
+from human_tracker.vision.resolution import to_working, working_scale, working_shape
 from human_tracker.vision.skin import SkinModel, SkinParameters, SkinSegmenter, default_skin_model, has_colour
 
 __all__ = ['SKIN_PARAMETERS', 'SkinNode', 'main']
@@ -71,6 +72,7 @@ class SkinNode(ImageStage):
             read_only=True,
         )
         self.segmenter = SkinSegmenter(model, parameters, rate, drift)
+        self.working_width = declare_working_width(self)
         self.grey_frames = 0
         self.adaptations = 0
         self.contour: np.ndarray | None = None  # the tracker's latest contour, pixels
@@ -109,13 +111,15 @@ class SkinNode(ImageStage):
             # that a tracker waiting for this frame's skin labels is not held up.
             self.grey_frames += 1
             self.get_logger().warn('grey-level image: no skin can be found without colour', throttle_duration_sec=10.0)
-            skin = np.zeros(image.shape[:2], dtype=np.uint8)
+            skin = np.zeros(working_shape(image.shape, self.working_width), dtype=np.uint8)
         else:
-            skin = self.segmenter.segment(image)
+            scale = working_scale(image.shape[1], self.working_width)
+            image = to_working(image, self.working_width)
+            skin = self.segmenter.segment(image, scale)
             if self.contour is not None:
-                # The latest contour (a frame or two old) marks where the target is.
+                # The latest contour (a frame or two old, camera pixels) marks where the target is.
                 region = np.zeros(image.shape[:2], dtype=np.uint8)
-                cv2.fillPoly(region, [np.round(self.contour).astype(np.int32)], 255)
+                cv2.fillPoly(region, [np.round(self.contour * scale).astype(np.int32)], 255)
                 self.adaptations += int(self.segmenter.adapt(image, region, skin))
         self.counters.processed += 1
         self.skin_pub.publish(array_to_image(skin, 'mono8', header))

@@ -21,10 +21,11 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image
 
 from human_tracker.drawing import annotate
-from human_tracker.ros.common import RESULT_QOS, declare
+from human_tracker.ros.common import RESULT_QOS, WORKING_WIDTH_DESCRIPTION, declare
 from human_tracker.ros.image_conversion import ImageConversionError, array_to_image, image_to_array
 from human_tracker.ros.stage import DEFERRED, ImageStage, ParameterSpec, spin_node, stamp_ns
 from human_tracker.vision.camera import metric_positions
+from human_tracker.vision.resolution import working_shape
 from human_tracker.vision.target import TargetParameters, TargetResult, TargetTracker, parameters_for
 from human_tracker.vision.templates import make_template
 from human_tracker.vision.tracker import TrackerParameters
@@ -106,6 +107,7 @@ TARGET_PARAMETERS = (
     ParameterSpec('edge_blur_sigma', 'Gaussian pre-filter of the edge detector, pixels.', 0.0, 20.0),
     ParameterSpec('canny_low', 'Canny low hysteresis threshold.', 0.0, 10000.0),
     ParameterSpec('canny_high', 'Canny high hysteresis threshold.', 0.0, 10000.0),
+    ParameterSpec('working_width', WORKING_WIDTH_DESCRIPTION, 0, 100000, runtime=False),
 )
 _UNKNOWN_VARIANCE = 1e3  # roll and pitch are not observed: a large variance says so
 _MOTION_INPUTS = ('none', 'foreground', 'motion')
@@ -221,7 +223,7 @@ class TrackerNode(ImageStage):
         probe.process(np.zeros((32, 32, 3), dtype=np.uint8), blank, blank)
 
     def _apply_filter(self, parameters: TrackerParameters) -> None:
-        self.tracker.filter.parameters = parameters
+        self.tracker.set_filter_parameters(parameters)
 
     def _apply_target(self, parameters: TargetParameters) -> None:
         self.tracker.parameters = parameters
@@ -295,16 +297,21 @@ class TrackerNode(ImageStage):
             )
         self.last_tracked_ns = stamp
         size = image.shape[:2]
-        if motion is not None and motion.shape != size:
+        # Cue stages publish at the working resolution; a full-size mask is reduced by the tracker.
+        sizes = (size, working_shape(size, self.tracker.parameters.working_width))
+        if motion is not None and motion.shape not in sizes:
             self.counters.reject('mask_size')
             self.get_logger().warn(
-                f'mask {motion.shape} does not match image {size}: tracking without it', throttle_duration_sec=5.0
+                f'mask {motion.shape} matches neither image {size} nor working size {sizes[1]}: tracking without it',
+                throttle_duration_sec=5.0,
             )
             motion = None
-        if skin is not None and skin.shape != size:
+        if skin is not None and skin.shape not in sizes:
             self.counters.reject('skin_size')
             self.get_logger().warn(
-                f'skin labels {skin.shape} do not match image {size}: tracking without them', throttle_duration_sec=5.0
+                f'skin labels {skin.shape} match neither image {size} nor working size {sizes[1]}: '
+                'tracking without them',
+                throttle_duration_sec=5.0,
             )
             skin = None
         if self.init_box is not None and not self.tracker.filter.initialised:
@@ -326,7 +333,7 @@ class TrackerNode(ImageStage):
                 image,
                 contour=None if estimate is None else estimate.contour,
                 box=None if estimate is None else estimate.box,
-                particles=self.tracker.filter.particles,
+                particles=self.tracker.particles,
                 label=label,
                 motion=motion if motion is not None else skin,
             )
@@ -335,10 +342,11 @@ class TrackerNode(ImageStage):
 
     def _publish(self, result: TargetResult, header: Any, shape: tuple[int, ...]) -> None:
         estimate = result.estimate
-        assert estimate is not None and self.tracker.filter.particles is not None
+        particles = self.tracker.particles
+        assert estimate is not None and particles is not None
         k = self.intrinsics(shape[1], shape[0])
         position = metric_positions(estimate.state, self.template, k, self.target_width)
-        cloud = metric_positions(self.tracker.filter.particles, self.template, k, self.target_width)
+        cloud = metric_positions(particles, self.template, k, self.target_width)
         pose = PoseWithCovarianceStamped()
         pose.header = header
         pose.pose.pose.position.x, pose.pose.pose.position.y, pose.pose.pose.position.z = (float(v) for v in position)

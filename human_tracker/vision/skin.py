@@ -231,7 +231,7 @@ class SkinParameters:
     """Constants of the two-phase segmentation.
 
     Attributes:
-        cell_size: Side of the square cells of the first partition, pixels.
+        cell_size: Side of the square cells of the first partition, camera pixels.
         min_region_cells: Smallest merged region, in cells, that is kept.
         histogram_bins: Bins of each local I1, I2, I3 histogram.
         histogram_smoothing: Standard deviation (bins) of the Gaussian smoothing of the
@@ -241,7 +241,7 @@ class SkinParameters:
         support_fraction: A peak's mode extends down its slopes to this fraction of its height
             (or to a valley).
         max_peaks: Largest number of principal peaks kept per histogram.
-        min_cluster_pixels: Clusters with fewer pixels are not labelled skin.
+        min_cluster_pixels: Clusters with fewer camera pixels are not labelled skin.
         variance_ratio: Largest ratio between a cluster's (I2, I3) variance and the matching
             class's variance for the cluster to be skin.
         match_scale: Multiplies the model's ``match_distance`` (above 1: more permissive).
@@ -275,6 +275,16 @@ class SkinParameters:
         for ok, message in checks:
             if not ok:
                 raise ValueError(message)
+
+    def scaled(self, factor: float) -> SkinParameters:
+        """The same segmentation on images resized by ``factor``: cell side and cluster area scaled."""
+        if factor == 1.0:
+            return self
+        return replace(
+            self,
+            cell_size=max(2, round(self.cell_size * factor)),
+            min_cluster_pixels=max(1, round(self.min_cluster_pixels * factor**2)),
+        )
 
 
 def candidate_cells(image: np.ndarray, model: SkinModel, cell_size: int, match_scale: float = 1.0) -> np.ndarray:
@@ -526,9 +536,15 @@ class SkinSegmenter:
             raise ValueError(f'adaptation_rate must be in [0, 1], got {self.adaptation_rate}')
         self.model = self.prior
 
-    def segment(self, image: np.ndarray) -> np.ndarray:
-        """Skin labels of ``image`` with the current model; see :func:`segment_skin`."""
-        return segment_skin(image, self.model, self.parameters)
+    def segment(self, image: np.ndarray, scale: float = 1.0) -> np.ndarray:
+        """Skin labels of ``image`` with the current model; see :func:`segment_skin`.
+
+        Args:
+            image: ``(H, W, 3) uint8`` BGR frame, possibly reduced to the working resolution.
+            scale: Pixels of ``image`` per camera pixel (the parameters' lengths are in
+                camera pixels; :func:`~human_tracker.vision.resolution.working_scale`).
+        """
+        return segment_skin(image, self.model, self.parameters.scaled(scale))
 
     def adapt(self, image: np.ndarray, region: np.ndarray, skin: np.ndarray) -> bool:
         """Move the nearest class towards the skin pixels of the tracked region.

@@ -28,7 +28,7 @@ filter (the template's fit tells the hand from the face and skin-coloured things
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import NamedTuple
 
 import cv2
@@ -38,8 +38,9 @@ from human_tracker.vision.initialisation import blobs, moments_state, state_from
 from human_tracker.vision.measurement import edge_map
 from human_tracker.vision.morphology import disk
 from human_tracker.vision.particle_filter import gaussian_cloud
+from human_tracker.vision.resolution import to_working, working_scale, working_shape
 from human_tracker.vision.templates import ContourTemplate
-from human_tracker.vision.tracker import ContourTracker, TrackerParameters, TrackEstimate
+from human_tracker.vision.tracker import ContourTracker, TrackerParameters, TrackEstimate, state_from_box
 
 __all__ = [
     'COLOUR_MODES',
@@ -99,6 +100,10 @@ class TargetParameters:
         edge_blur_sigma: Gaussian pre-filter of the edge detector, pixels.
         canny_low: Canny low threshold.
         canny_high: Canny high threshold.
+        working_width: Frames wider than this many pixels are reduced to it before the
+            edges are found and the contour fitted (:mod:`~human_tracker.vision.resolution`);
+            0 works at full size. Every length above and in the filter's parameters stays
+            in the camera's pixels.
     """
 
     motion_mode: str = 'weighted'
@@ -121,6 +126,7 @@ class TargetParameters:
     edge_blur_sigma: float = 1.5
     canny_low: float = 40.0
     canny_high: float = 100.0
+    working_width: int = 320
 
     def validate(self) -> None:
         """Raise ValueError naming the first parameter out of its range."""
@@ -153,6 +159,20 @@ class TargetParameters:
             raise ValueError(f'lost_frames must be >= 1, got {self.lost_frames}')
         if self.canny_low < 0 or self.canny_high < self.canny_low:
             raise ValueError(f'need 0 <= canny_low <= canny_high, got {self.canny_low}, {self.canny_high}')
+        if self.working_width < 0:
+            raise ValueError(f'working_width must be >= 0 (0: full size), got {self.working_width}')
+
+    def scaled(self, factor: float) -> TargetParameters:
+        """The same parameters on images resized by ``factor``: lengths and areas in pixels scaled."""
+        if factor == 1.0:
+            return self
+        return replace(
+            self,
+            skin_margin=round(self.skin_margin * factor),
+            min_blob_area=max(1, round(self.min_blob_area * factor**2)),
+            region_closing=round(self.region_closing * factor),
+            edge_blur_sigma=self.edge_blur_sigma * factor,
+        )
 
 
 def parameters_for(target: str) -> TargetParameters:
@@ -215,7 +235,11 @@ class TargetResult:
 
 @dataclass
 class TargetTracker:
-    """The contour particle filter plus motion cues, initialisation and loss detection."""
+    """The contour particle filter plus motion cues, initialisation and loss detection.
+
+    Frames, boxes, estimates and parameters are in the camera's pixels; the filter itself
+    (``filter``) works at the working resolution, ``scale`` working pixels per camera pixel.
+    """
 
     template: ContourTemplate
     filter_parameters: TrackerParameters = field(default_factory=TrackerParameters)
@@ -223,14 +247,27 @@ class TargetTracker:
     status: str = WAITING
     weak_frames: int = 0
     filter: ContourTracker = field(init=False)
+    scale: float = field(default=1.0, init=False)
 
     def __post_init__(self) -> None:
         self.parameters.validate()
         self.filter = ContourTracker(self.template, self.filter_parameters)
 
+    def set_filter_parameters(self, parameters: TrackerParameters) -> None:
+        """Change the filter's constants (camera pixels) while it runs."""
+        self.filter_parameters = parameters
+        self.filter.parameters = parameters.scaled(self.scale)
+
+    @property
+    def particles(self) -> np.ndarray | None:
+        """``(P, 4)`` particle cloud in camera pixels, or None before initialisation."""
+        if self.filter.particles is None:
+            return None
+        return self.filter.particles * self._to_camera_factors()
+
     def initialise_from_box(self, box: tuple[float, float, float, float]) -> None:
-        """Start on a known box (x, y, w, h) of the reference region (benchmark protocol)."""
-        self.filter.initialise_from_box(box)
+        """Start on a known box (x, y, w, h), camera pixels, of the reference region (benchmark protocol)."""
+        self.filter.initialise(state_from_box(box, self.template) / self._to_camera_factors())
         self.status = TRACKING
         self.weak_frames = 0
 
@@ -252,8 +289,8 @@ class TargetTracker:
         return motion if motion is not None else skin
 
     def initial_states(self, region: np.ndarray) -> list[np.ndarray]:
-        """Candidate X_0 from a region mask (§2.5); empty if there is no usable region."""
-        p = self.parameters
+        """Candidate X_0 from a region mask (§2.5) at the working resolution; empty if there is no usable region."""
+        p = self.parameters.scaled(self.scale)
         if p.region_closing:
             # Join the silhouette's moving parts into one region; the likelihood keeps the
             # tight mask so that still edges next to a moving person do not count as moving.
@@ -301,17 +338,22 @@ class TargetTracker:
 
         Args:
             image: ``(H, W) uint8`` intensity image, or ``(H, W, 3) uint8`` BGR image.
-            motion: Optional ``(H, W) uint8`` mask, non-zero on moving pixels (foreground or
-                optical-flow motion) of the same frame.
-            skin: Optional ``(H, W) uint8`` skin labels of the same frame, non-zero on skin.
+            motion: Optional ``uint8`` mask, non-zero on moving pixels (foreground or
+                optical-flow motion) of the same frame: ``(H, W)`` or at the working
+                resolution (what a cue stage with the same ``working_width`` publishes).
+            skin: Optional ``uint8`` skin labels of the same frame, non-zero on skin; same sizes.
+
+        Returns:
+            The outcome, its estimate in the camera's pixels.
         """
-        p = self.parameters
+        self._rescale(working_scale(image.shape[1], self.parameters.working_width))
+        p = self.parameters.scaled(self.scale)
+        motion = self._at_working('motion mask', motion, image.shape[:2])
+        skin = self._at_working('skin labels', skin, image.shape[:2])
         if image.ndim == 3 and not p.colour_edges:
             image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+        image = to_working(image, p.working_width)
         edges = edge_map(image, blur_sigma=p.edge_blur_sigma, low_threshold=p.canny_low, high_threshold=p.canny_high)
-        for name, mask in (('motion mask', motion), ('skin labels', skin)):
-            if mask is not None and mask.shape != image.shape[:2]:
-                raise ValueError(f'{name} {mask.shape} do not match the image {image.shape[:2]}')
         likelihood_motion = likelihood_skin = None
         if motion is not None and p.motion_mode == 'mask':
             edges = np.where(motion > 0, edges, 0).astype(np.uint8)
@@ -332,6 +374,7 @@ class TargetTracker:
             self.status, self.weak_frames, initialised = TRACKING, 0, True
         if estimate is None:
             return TargetResult(self.status, None)
+        estimate = self._to_camera(estimate)
         weak = estimate.confidence < p.lost_confidence
         if motion is not None and estimate.motion_support < p.lost_motion_support:
             weak = True
@@ -356,3 +399,44 @@ class TargetTracker:
         far = np.hypot(*(found.state[:2] - estimate.state[:2])) > 0.5 * estimate.state[2]
         fits = found.confidence >= p.lost_confidence
         return far and fits and found.motion_support >= estimate.motion_support + p.switch_margin
+
+    def _to_camera_factors(self) -> np.ndarray:
+        """Per-component factors taking a state [x, y, s, θ] from working to camera pixels."""
+        return np.array([1.0 / self.scale, 1.0 / self.scale, 1.0 / self.scale, 1.0])
+
+    def _rescale(self, scale: float) -> None:
+        """Work at ``scale`` working pixels per camera pixel (first frame, or a new frame size)."""
+        if scale == self.scale:
+            return
+        if self.filter.particles is not None and self.filter.previous is not None:
+            factors = self._to_camera_factors() * np.array([scale, scale, scale, 1.0])
+            self.filter.particles = self.filter.particles * factors
+            self.filter.previous = self.filter.previous * factors
+        self.scale = scale
+        self.filter.parameters = self.filter_parameters.scaled(scale)
+
+    def _at_working(self, name: str, mask: np.ndarray | None, shape: tuple[int, int]) -> np.ndarray | None:
+        """A cue mask at the working resolution; it may come at the frame's size or at that one."""
+        if mask is None:
+            return None
+        working = working_shape(shape, self.parameters.working_width)
+        if mask.shape == working:
+            return mask
+        if mask.shape == shape:
+            return to_working(mask, self.parameters.working_width, mask=True)
+        raise ValueError(f'{name} {mask.shape} match neither the image {shape} nor its working size {working}')
+
+    def _to_camera(self, estimate: TrackEstimate) -> TrackEstimate:
+        """``estimate`` (working pixels) in camera pixels."""
+        if self.scale == 1.0:
+            return estimate
+        factors = self._to_camera_factors()
+        inverse = 1.0 / self.scale
+        x, y, w, h = estimate.box
+        return replace(
+            estimate,
+            state=estimate.state * factors,
+            covariance=estimate.covariance * np.outer(factors, factors),
+            box=(x * inverse, y * inverse, w * inverse, h * inverse),
+            contour=estimate.contour * inverse,
+        )

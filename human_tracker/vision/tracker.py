@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -91,6 +91,27 @@ class TrackerParameters:
         for ok, message in checks:
             if not ok:
                 raise ValueError(message)
+
+    def scaled(self, factor: float) -> TrackerParameters:
+        """The same filter on images resized by ``factor``: pixel lengths times ``factor``.
+
+        ρ and the costs are squared distances, so ρ scales by ``factor²`` and K by its
+        inverse: the likelihood of a state is then the same at every resolution.
+        """
+        if factor == 1.0:
+            return self
+        x, y, s, theta = self.process_noise
+        sx, sy, ss, stheta = self.initial_spread
+        return replace(
+            self,
+            search_halfwidth=self.search_halfwidth * factor,
+            miss_penalty=self.miss_penalty * factor**2,
+            likelihood_gain=self.likelihood_gain / factor**2,
+            process_noise=(x * factor, y * factor, s, theta),
+            initial_spread=(sx * factor, sy * factor, ss, stheta),
+            min_scale=self.min_scale * factor,
+            max_scale=self.max_scale * factor,
+        )
 
 
 @dataclass

@@ -1,0 +1,105 @@
+"""The working resolution: cues computed on reduced frames, results in the camera's pixels."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import REPO
+
+from human_tracker.evaluation.metrics import summarise
+from human_tracker.io.images import to_mono8
+from human_tracker.io.sequences import open_sequence
+from human_tracker.vision.background import BackgroundModel
+from human_tracker.vision.resolution import to_working, working_scale, working_shape
+from human_tracker.vision.skin import SkinParameters
+from human_tracker.vision.target import TargetParameters, TargetTracker
+from human_tracker.vision.templates import head_and_shoulders
+from human_tracker.vision.tracker import TrackerParameters
+
+
+def test_frames_wider_than_the_working_width_are_reduced_to_it() -> None:
+    assert working_scale(640, 320) == 0.5
+    assert working_scale(320, 320) == working_scale(200, 320) == working_scale(640, 0) == 1.0
+    assert working_shape((480, 640, 3), 320) == (240, 320)
+    assert working_shape((360, 480), 320) == (240, 320)
+    frame = np.zeros((480, 640, 3), np.uint8)
+    frame[100:102, 200:202] = 200  # a 2x2 block averages into one working pixel
+    reduced = to_working(frame, 320)
+    assert reduced.shape == (240, 320, 3) and reduced[50, 100, 0] == 200
+    small = np.zeros((120, 160), np.uint8)
+    assert to_working(small, 320) is small
+    labels = np.zeros((480, 640), np.uint8)
+    labels[::2, ::2] = 255  # nearest neighbour keeps labels binary
+    assert set(np.unique(to_working(labels, 320, mask=True))) <= {0, 255}
+
+
+def test_lengths_in_pixels_scale_with_the_image() -> None:
+    filter_parameters = TrackerParameters().scaled(0.5)
+    assert filter_parameters.search_halfwidth == 6.0 and filter_parameters.min_scale == 12.0
+    # ρ and the costs are squared distances, K their inverse: the same likelihood.
+    assert filter_parameters.miss_penalty == 36.0 and filter_parameters.likelihood_gain == pytest.approx(0.04)
+    assert filter_parameters.process_noise == (2.5, 2.5, 0.01, 0.02)
+    assert filter_parameters.initial_spread == (4.0, 4.0, 0.08, 0.08)
+    target = TargetParameters().scaled(0.5)
+    assert (target.min_blob_area, target.region_closing, target.edge_blur_sigma) == (250, 2, 0.75)
+    skin = SkinParameters().scaled(0.5)
+    assert (skin.cell_size, skin.min_cluster_pixels) == (4, 4)
+    assert TrackerParameters().scaled(1.0) == TrackerParameters()
+
+
+def _run(working_width: int, mask_at_working_size: bool) -> tuple[dict, list]:
+    """head_basic from its first box, background cue; returns the summary and the last particles."""
+    frames = list(open_sequence(REPO / 'bags' / 'head_basic'))
+    tracker = TargetTracker(head_and_shoulders(), TrackerParameters(), TargetParameters(working_width=working_width))
+    tracker.initialise_from_box(frames[0].ground_truth)
+    background = BackgroundModel()
+    boxes, estimates = [], []
+    for frame in frames:
+        gray = to_mono8(frame.image)
+        motion = background.apply(to_working(gray, working_width))
+        if not mask_at_working_size:
+            motion = np.kron(motion, np.ones((2, 2), np.uint8)) if working_width else motion
+        result = tracker.process(frame.image, motion)
+        boxes.append(result.estimate.box if result.tracking else None)
+        estimates.append(result.estimate)
+    particles = tracker.particles
+    assert particles is not None
+    # The cloud and the estimate are in the camera's pixels, wherever the filter works.
+    assert np.linalg.norm(particles[:, :2].mean(axis=0) - estimates[-1].state[:2]) < 10
+    return summarise(boxes, [f.ground_truth for f in frames]), estimates
+
+
+def test_tracking_at_half_size_reports_camera_pixels_and_matches_full_size() -> None:
+    full, full_estimates = _run(0, True)
+    half, half_estimates = _run(320, True)
+    print(f'head_basic, 640x480 frames: full size {full}; working width 320 {half}')
+    assert full['precision_20px'] >= 0.95 and half['precision_20px'] >= 0.95
+    # Same target, same place, same size (scale s in camera pixels per template unit).
+    last_full, last_half = full_estimates[-1].state, half_estimates[-1].state
+    assert abs(last_full[2] - last_half[2]) < 0.15 * last_full[2]
+    assert np.hypot(*(last_full[:2] - last_half[:2])) < 10
+
+
+def test_masks_come_at_the_frame_size_or_the_working_size() -> None:
+    working, _ = _run(320, True)
+    camera, _ = _run(320, False)
+    assert working == camera  # a full-size mask is reduced to exactly the working one
+    tracker = TargetTracker(head_and_shoulders())
+    frame = np.zeros((480, 640), np.uint8)
+    with pytest.raises(ValueError, match='working size'):
+        tracker.process(frame, np.zeros((100, 100), np.uint8))
+    tracker.process(frame, np.zeros((240, 320), np.uint8))
+    tracker.process(frame, np.zeros((480, 640), np.uint8))
+
+
+def test_the_filter_follows_a_change_of_frame_size() -> None:
+    """A box given before the first frame, then the camera switches resolution."""
+    tracker = TargetTracker(head_and_shoulders())
+    tracker.initialise_from_box((280, 151, 80, 100))
+    before = tracker.particles.copy()
+    tracker.process(np.zeros((480, 640), np.uint8))
+    assert tracker.scale == 0.5
+    tracker.process(np.zeros((240, 320), np.uint8))
+    assert tracker.scale == 1.0
+    # Two prediction steps later the cloud is still where the box was, in camera pixels.
+    assert np.linalg.norm(tracker.particles[:, :2].mean(axis=0) - before[:, :2].mean(axis=0)) < 15

@@ -57,6 +57,7 @@ def _track(options: argparse.Namespace) -> int:
         skin=options.skin,
         template_file=options.template or '',
         filter_parameters=TrackerParameters(num_particles=options.particles, seed=options.seed),
+        working_width=options.working_width,
         video=not options.no_video,
         progress=not options.quiet,
     )
@@ -163,6 +164,11 @@ def main(argv: list[str] | None = None) -> int:
     track.add_argument('--template', help='JSON template file replacing the built-in one')
     track.add_argument('--particles', type=int, default=500)
     track.add_argument('--seed', type=int, default=0)
+    track.add_argument(
+        '--working-width',
+        type=int,
+        help='frames wider than this are reduced to it before tracking (default 320; 0: full size)',
+    )
     track.add_argument('--no-video', action='store_true', help='skip the annotated video')
     track.add_argument('--quiet', action='store_true', help='no progress bar')
     track.set_defaults(run=_track)

@@ -13,7 +13,7 @@ from __future__ import annotations
 import csv
 import json
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import cv2
@@ -64,7 +64,9 @@ class TrackOptions:
         skin: Whether to segment skin and use it (§3.2); None: for the hand only.
         template_file: JSON template replacing the built-in one (empty: built-in).
         filter_parameters: Particle-filter constants.
-        target_parameters: Cue combination, initialisation and loss constants.
+        target_parameters: Cue combination, initialisation and loss constants; None: the
+            target's defaults.
+        working_width: Overrides the target parameters' ``working_width`` (0: full size).
         video: Whether to write the annotated video.
         progress: Whether to show a progress bar.
     """
@@ -76,6 +78,7 @@ class TrackOptions:
     template_file: str = ''
     filter_parameters: TrackerParameters = field(default_factory=TrackerParameters)
     target_parameters: TargetParameters | None = None
+    working_width: int | None = None
     video: bool = True
     progress: bool = True
 
@@ -98,6 +101,8 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
     target = options.target or sequence.target or 'head'
     template = make_template(target, template_file=options.template_file)
     target_parameters = options.target_parameters or parameters_for(target)
+    if options.working_width is not None:
+        target_parameters = replace(target_parameters, working_width=options.working_width)
     tracker = TargetTracker(template, options.filter_parameters, target_parameters)
     background, flow = BackgroundModel(), OpticalFlow()
     use_skin = target == 'hand' if options.skin is None else options.skin
@@ -175,6 +180,7 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
         'target': target,
         'cue': options.cue,
         'skin': use_skin,
+        'working_width': target_parameters.working_width,
         'frames_without_colour': grey_frames,
         'init': list(options.init) if options.init is not None else 'motion',
         'frames': len(predicted),

@@ -8,6 +8,7 @@ import subprocess
 import sys
 
 import cv2
+import numpy as np
 import pytest
 from conftest import REAL_DATA
 
@@ -36,6 +37,19 @@ def test_track_a_bag_writes_every_output(tmp_path, head_bag) -> None:
     assert json.loads((tmp_path / 'summary.json').read_text())['precision_20px'] == summary['precision_20px']
     video = cv2.VideoCapture(str(tmp_path / 'tracking.mp4'))
     assert int(video.get(cv2.CAP_PROP_FRAME_COUNT)) == 120
+    assert summary['working_width'] == 320
+
+
+def test_track_at_full_size_from_the_command_line(tmp_path, head_bag) -> None:
+    out = tmp_path / 'full'
+    assert main(['track', str(head_bag), '--working-width', '0', '--no-video', '--quiet', '--out', str(out)]) == 0
+    summary = json.loads((out / 'summary.json').read_text())
+    assert summary['working_width'] == 0 and summary['precision_20px'] >= 0.9
+    # Poses are in the camera's pixels at any working width: the boxes of both runs agree.
+    track_sequence(head_bag, tmp_path / 'reduced', TrackOptions(video=False, progress=False))
+    full_boxes, reduced_boxes = read_poses(out / 'poses.csv'), read_poses(tmp_path / 'reduced' / 'poses.csv')
+    gaps = [np.hypot(a[0] - b[0], a[1] - b[1]) for a, b in zip(full_boxes, reduced_boxes, strict=True) if a and b]
+    assert len(gaps) >= 100 and np.median(gaps) < 5
 
 
 def test_import_a_frame_folder_then_track_and_eval_it(tmp_path, head_bag) -> None:

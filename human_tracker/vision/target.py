@@ -201,7 +201,7 @@ class Hypothesis(NamedTuple):
     """A candidate state from the moving region and how well it fits.
 
     Attributes:
-        state: ``(4,)`` [x, y, s, θ].
+        state: ``(4,)`` [x, y, s, θ] in working pixels (what ``filter`` is initialised with).
         confidence: Fraction of contour points that found an edge.
         motion_support: Fraction of contour points whose edge moves.
         skin_support: Share of the contour's interior on skin (1 without skin labels).

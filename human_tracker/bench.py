@@ -40,6 +40,7 @@ from sensor_msgs.msg import Image
 
 from human_tracker.io.bags import read_frames
 from human_tracker.io.images import stamp_ns
+from human_tracker.ros.collector import PoseCollector
 from human_tracker.ros.image_conversion import array_to_image, message_to_bgr8
 from human_tracker.ros.processes import NodeProcess, use_ros_environment
 
@@ -102,8 +103,11 @@ def measure_latency(
     """Run one layout at ``rate_hz`` (None: full speed, closed loop) over ``frames``; nodes get ``env``."""
     nodes = _layout(layout, box, env, logs)
     camera = _Camera()
+    # The tracker's own account of the frames: where a missing pose went.
+    collector = PoseCollector(namespace='bench')
     executor = SingleThreadedExecutor()
     executor.add_node(camera)
+    executor.add_node(collector)
     try:
         for node in nodes:
             node.start()
@@ -132,11 +136,13 @@ def measure_latency(
         settle = time.monotonic() + 2.0
         while time.monotonic() < settle:
             executor.spin_once(timeout_sec=0.01)
+        diagnostics = collector.spin_until_diagnostics(executor, '/tracker_node', 5.0)
     finally:
         for node in nodes:
             node.stop()
         executor.shutdown()
         camera.destroy_node()
+        collector.destroy_node()
     latencies = np.array(sorted(camera.latency_s.values())) * 1000.0
     return {
         'layout': layout,
@@ -146,6 +152,9 @@ def measure_latency(
         'throughput_hz': round(latencies.size / elapsed, 2),
         'latency_ms_median': round(float(np.median(latencies)), 2) if latencies.size else None,
         'latency_ms_p95': round(float(np.percentile(latencies, 95)), 2) if latencies.size else None,
+        'tracker_frames_received': diagnostics.get('frames_received', '-'),
+        'tracker_frames_without_mask': diagnostics.get('frames_without_foreground', '-'),
+        'tracker_frames_never_received': diagnostics.get('frames_never_received', '-'),
     }
 
 
@@ -268,6 +277,9 @@ def main(argv: list[str] | None = None) -> int:
             'throughput_hz',
             'latency_ms_median',
             'latency_ms_p95',
+            'tracker_frames_received',
+            'tracker_frames_without_mask',
+            'tracker_frames_never_received',
         ]
         report += ['## end-to-end latency over DDS\n', _table(rows, columns)]
     (options.out / 'results.json').write_text(json.dumps(results, indent=2) + '\n')

@@ -77,6 +77,37 @@ def test_frames_waiting_for_masks_that_never_come_stay_bounded_and_counted() -> 
     assert node.counters.processed == 40 and node.unmatched == {'foreground': 40}
 
 
+def test_frames_that_never_reach_the_tracker_are_counted_from_their_masks() -> None:
+    """Masks of frames 0-9 arrive; the images of 4 and 7 never do, and the mask of 8 comes late."""
+    frames = list(read_frames('bags/head_basic'))[:10]
+    rclpy.init()
+    overrides = [Parameter('motion_input', value='foreground'), Parameter('match_timeout', value=0.05)]
+    node = TrackerNode(parameter_overrides=overrides)
+
+    def mask(index: int):
+        message = array_to_image(np.zeros((240, 320), np.uint8), 'mono8')
+        _header(message, index / 30)
+        return message
+
+    try:
+        for index, frame in enumerate(frames):
+            if index == 9:
+                time.sleep(0.1)  # frame 8 waits out match_timeout and is tracked without its mask
+            if index != 8:
+                node._on_mask('foreground', mask(index))
+            if index not in (4, 7):
+                message = array_to_image(message_to_bgr8(frame.message), 'bgr8')
+                _header(message, index / 30)
+                node.on_image(message)
+        node._on_mask('foreground', mask(8))  # after its frame was tracked: late, not lost
+        diagnostics = node.diagnostics_state()[1]
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    assert node.counters.processed == 8 and node.unmatched == {'foreground': 1}
+    assert diagnostics['frames_never_received'] == 2
+
+
 def test_zero_and_negative_time_steps_do_not_break_the_core() -> None:
     """The core works per frame: repeated frames (dt = 0) are just more evidence."""
     tracker = TargetTracker(head_and_shoulders(), TrackerParameters(), TargetParameters())

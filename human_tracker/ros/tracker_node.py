@@ -201,6 +201,10 @@ class TrackerNode(ImageStage):
         self.mask_topics = topics if subscribe_image else []
         self.masks: dict[str, OrderedDict[int, np.ndarray]] = {topic: OrderedDict() for topic in self.mask_topics}
         self.unmatched = dict.fromkeys(self.mask_topics, 0)
+        # Frames a cue stage received but this node never did (lost on the way to it), told
+        # apart from masks that came after their frame was tracked without them.
+        self.frames_never_received = 0
+        self.recently_tracked: deque[int] = deque(maxlen=4 * self.max_pending)
         # Masks queue as deep as the frames that may wait for them, so none is dropped.
         mask_qos = QoSProfile(
             depth=4 * self.max_pending, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST
@@ -233,6 +237,7 @@ class TrackerNode(ImageStage):
         self.tracker.reset()
         self.counters.skipped += len(self.pending)
         self.pending.clear()
+        self.recently_tracked.clear()
         for masks in self.masks.values():
             masks.clear()
         self.last_tracked_ns = -1
@@ -265,13 +270,23 @@ class TrackerNode(ImageStage):
                     f'frame tracked without its {topic} mask (none within {self.match_timeout} s)',
                     throttle_duration_sec=5.0,
                 )
+            self.recently_tracked.append(stamp)
             motion = found.get(self.motion_input)
             start = time.perf_counter()
             self.guarded(self.track, image, header, motion, found.get('skin'))
             self.timer_stats.took(time.perf_counter() - start)
+        lost = set()
         for masks in self.masks.values():
             for stale in [s for s in masks if s <= self.last_tracked_ns]:
                 del masks[stale]
+                if stale not in self.recently_tracked:
+                    lost.add(stale)
+        if lost:
+            self.frames_never_received += len(lost)
+            self.get_logger().warn(
+                f'{len(lost)} frame(s) reached a cue stage but never this node (lost upstream)',
+                throttle_duration_sec=5.0,
+            )
 
     def handle_frame(
         self, image: np.ndarray, header: Any, motion: np.ndarray | None = None, skin: np.ndarray | None = None
@@ -368,6 +383,7 @@ class TrackerNode(ImageStage):
         extra: dict[str, Any] = {
             'particles': self.tracker.filter.parameters.num_particles,
             **{f'frames_without_{topic}': count for topic, count in self.unmatched.items()},
+            'frames_never_received': self.frames_never_received,
             'frames_pending': len(self.pending),
         }
         result = self.last_result

@@ -183,6 +183,38 @@ def _speed(bag: Path, contrib_python: Path | None) -> dict[str, object]:
     return {'stages_ms': stages, 'trackers_ms_640x480': baselines, 'baseline_ms_over_our_pipeline_ms': ratios}
 
 
+def _acceptance(results: dict[str, object]) -> list[dict[str, object]]:
+    """The issue's bars against this run's figures: speed at 640x480, precision per sequence."""
+    checks: list[dict[str, object]] = []
+    speed = results.get('speed')
+    if isinstance(speed, dict):
+        stages, trackers = speed['stages_ms']['640x480'], speed['trackers_ms_640x480']
+        pipeline = stages['pipeline']
+        rows = [('particle filter step, 500 particles (ms)', stages['particle_filter_500'], 2.0)]
+        if 'KCF' in trackers:
+            rows += [
+                ('pipeline (ms) <= KCF', pipeline, trackers['KCF']),
+                ('pipeline (ms) <= CSRT / 5', pipeline, round(trackers['CSRT'] / 5, 3)),
+            ]
+        checks += [{'check': name, 'measured': value, 'bar': bar, 'met': value <= bar} for name, value, bar in rows]
+    by_sequence: dict[str, dict[str, float]] = {}
+    for row in results.get('accuracy', []):  # type: ignore[union-attr]
+        name = 'ours' if str(row['tracker']).startswith('ours') else str(row['tracker'])
+        by_sequence.setdefault(str(row['sequence']), {})[name] = float(row['precision_20px'])
+    for sequence, scores in by_sequence.items():
+        rivals = [scores[name] for name in ('CamShift', 'MIL', 'KCF') if name in scores]
+        bar = max(rivals, default=0.0)
+        checks.append(
+            {
+                'check': f'{sequence}: precision at 20 px >= CamShift, MIL, KCF',
+                'measured': scores['ours'],
+                'bar': bar,
+                'met': scores['ours'] >= bar,
+            }
+        )
+    return checks
+
+
 def _accuracy(sequences: list[Path], contrib_python: Path | None) -> list[dict[str, object]]:
     from human_tracker.evaluation.accuracy import compare_on_sequence
 
@@ -253,6 +285,11 @@ def main(argv: list[str] | None = None) -> int:
         results['skin'] = _skin(options.real_data)
         columns = ['sequence', 'truth', 'precision', 'recall', 'labelled_fraction', 'regions', 'regions_found']
         report += ['## skin labels (§3.2) against true skin\n', _table(results['skin'], columns)]
+    checks = _acceptance(results)
+    if checks:
+        results['acceptance'] = checks
+        table = _table(checks, ['check', 'measured', 'bar', 'met'])
+        report += ["## issue 6's acceptance, checked on this run\n", table]
     if 'latency' in sections:
         env = use_ros_environment(int(os.environ.get('ROS_DOMAIN_ID', 150 + os.getpid() % 50)))
         bag_frames = list(read_frames(options.bag))

@@ -105,11 +105,23 @@ def edge_map(
     dy = cv2.Sobel(image, cv2.CV_16S, 0, 1, ksize=3)
     if image.ndim == 3:
         dx, dy = _strongest_channel(dx, dy)
-    edges = cv2.Canny(dx, dy, low_threshold, high_threshold) > 0
-    out = np.zeros(image.shape[:2], dtype=np.uint8)
-    degrees = np.degrees(np.arctan2(dy[edges].astype(np.float32), dx[edges].astype(np.float32)))
-    out[edges] = (np.rint(degrees).astype(np.int32) % 180 + 1).astype(np.uint8)
+    edges = cv2.Canny(dx, dy, low_threshold, high_threshold)
+    out = np.empty(image.shape[:2], dtype=np.uint8)
+    _orientation_labels(edges, dx, dy, out)
     return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _orientation_labels(edges: np.ndarray, dx: np.ndarray, dy: np.ndarray, out: np.ndarray) -> None:
+    """``out``: 0 off edges, 1 + the gradient orientation in whole degrees modulo 180 on them."""
+    height, width = edges.shape
+    for v in range(height):
+        for u in range(width):
+            if edges[v, u] == 0:
+                out[v, u] = 0
+            else:
+                degrees = np.degrees(np.arctan2(np.float32(dy[v, u]), np.float32(dx[v, u])))
+                out[v, u] = np.int64(np.rint(degrees)) % 180 + 1
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)

@@ -57,6 +57,9 @@ def annotate(
     if contour is not None:
         cv2.polylines(out, [np.round(contour).astype(np.int32)], closed, _CONTOUR, 2, cv2.LINE_AA)
     if label:
-        cv2.putText(out, label, (8, 20), cv2.FONT_HERSHEY_SIMPLEX, 0.55, (0, 0, 0), 3, cv2.LINE_AA)
+        # White on a dark band: a thick dark copy of the text would advance further per glyph
+        # than the thin white one and show as a shifted shadow.
+        (width, height), baseline = cv2.getTextSize(label, cv2.FONT_HERSHEY_SIMPLEX, 0.55, 1)
+        cv2.rectangle(out, (4, 20 - height - 4), (12 + width, 20 + baseline + 2), (0, 0, 0), -1)
         cv2.putText(out, label, (8, 20), cv2.FONT_HERSHEY_SIMPLEX, 0.55, (255, 255, 255), 1, cv2.LINE_AA)
     return out

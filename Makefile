@@ -11,7 +11,7 @@ export RMW_IMPLEMENTATION ?= rmw_fastrtps_cpp
 export FASTRTPS_DEFAULT_PROFILES_FILE ?= $(CURDIR)/config/fastdds_large_shm.xml
 export PYTHONHASHSEED := 0
 
-.PHONY: demo test bench soak lint bags clean venv
+.PHONY: demo test bench soak lint bags docs clean venv
 
 venv: $(STAMP)
 
@@ -34,6 +34,10 @@ test: $(STAMP)
 
 lint: $(STAMP)
 	$(PY) -m ruff check human_tracker test launch setup.py
+
+# The README's real-sequence material: david tracked from its first box, every third frame in the video.
+docs: $(STAMP)
+	$(PY) -m human_tracker.cli track ../shared/data/real/david --init 122,58,75,97 --video-every 3 --quiet --out docs/david
 
 # Regenerate the bundled bags from the seeded scene generator.
 bags: $(STAMP)

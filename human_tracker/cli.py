@@ -59,6 +59,7 @@ def _track(options: argparse.Namespace) -> int:
         filter_parameters=TrackerParameters(num_particles=options.particles, seed=options.seed),
         working_width=options.working_width,
         video=not options.no_video,
+        video_every=options.video_every,
         progress=not options.quiet,
     )
     summary = track_sequence(options.input, out, settings)
@@ -170,6 +171,7 @@ def main(argv: list[str] | None = None) -> int:
         help='frames wider than this are reduced to it before tracking (default 320; 0: full size)',
     )
     track.add_argument('--no-video', action='store_true', help='skip the annotated video')
+    track.add_argument('--video-every', type=int, default=1, help='write every Nth frame to the video (default 1)')
     track.add_argument('--quiet', action='store_true', help='no progress bar')
     track.set_defaults(run=_track)
 

@@ -68,6 +68,7 @@ class TrackOptions:
             target's defaults.
         working_width: Overrides the target parameters' ``working_width`` (0: full size).
         video: Whether to write the annotated video.
+        video_every: Write every this many frames to the video (a shorter file; same pace).
         progress: Whether to show a progress bar.
     """
 
@@ -80,6 +81,7 @@ class TrackOptions:
     target_parameters: TargetParameters | None = None
     working_width: int | None = None
     video: bool = True
+    video_every: int = 1
     progress: bool = True
 
 
@@ -95,6 +97,8 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
     """
     if options.cue not in CUES:
         raise ValueError(f'cue must be one of {", ".join(CUES)}, got {options.cue!r}')
+    if options.video_every < 1:
+        raise ValueError(f'video_every must be >= 1, got {options.video_every}')
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     sequence = open_sequence(source)
@@ -158,7 +162,7 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
                 table.writerow(
                     [frame.index, frame.stamp_ns, x, y, s, theta, round(estimate.confidence, 4), result.status, *shown]
                 )
-            if options.video:
+            if options.video and frame.index % options.video_every == 0:
                 label = f'{sequence.name} {frame.index} {result.status}'
                 image = annotate(
                     frame.image,
@@ -170,7 +174,10 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
                 if writer is None:
                     height, width = image.shape[:2]
                     writer = cv2.VideoWriter(
-                        str(out / 'tracking.mp4'), cv2.VideoWriter_fourcc(*'mp4v'), sequence.fps, (width, height)
+                        str(out / 'tracking.mp4'),
+                        cv2.VideoWriter_fourcc(*'mp4v'),
+                        sequence.fps / options.video_every,
+                        (width, height),
                     )
                 writer.write(image)
     if writer is not None:

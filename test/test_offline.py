@@ -38,6 +38,9 @@ def test_track_a_bag_writes_every_output(tmp_path, head_bag) -> None:
     video = cv2.VideoCapture(str(tmp_path / 'tracking.mp4'))
     assert int(video.get(cv2.CAP_PROP_FRAME_COUNT)) == 120
     assert summary['working_width'] == 320
+    track_sequence(head_bag, tmp_path / 'short', TrackOptions(progress=False, video_every=4))
+    video = cv2.VideoCapture(str(tmp_path / 'short' / 'tracking.mp4'))
+    assert int(video.get(cv2.CAP_PROP_FRAME_COUNT)) == 30
 
 
 def test_track_at_full_size_from_the_command_line(tmp_path, head_bag) -> None:

@@ -10,7 +10,7 @@ from human_tracker.evaluation.metrics import summarise
 from human_tracker.io.images import to_mono8
 from human_tracker.io.sequences import open_sequence
 from human_tracker.vision.background import BackgroundModel
-from human_tracker.vision.resolution import to_working, working_scale, working_shape
+from human_tracker.vision.resolution import same_frame, to_working, working_scale, working_shape
 from human_tracker.vision.skin import SkinParameters
 from human_tracker.vision.target import TargetParameters, TargetTracker
 from human_tracker.vision.templates import head_and_shoulders
@@ -80,16 +80,21 @@ def test_tracking_at_half_size_reports_camera_pixels_and_matches_full_size() -> 
     assert np.hypot(*(last_full[:2] - last_half[:2])) < 10
 
 
-def test_masks_come_at_the_frame_size_or_the_working_size() -> None:
+def test_masks_may_come_at_any_resolution_of_the_frame() -> None:
     working, _ = _run(320, True)
     camera, _ = _run(320, False)
     assert working == camera  # a full-size mask is reduced to exactly the working one
+    assert same_frame((240, 320), (480, 640)) and same_frame((121, 160), (480, 640))
+    assert not same_frame((100, 100), (480, 640)) and not same_frame((0, 0), (480, 640))
     tracker = TargetTracker(head_and_shoulders())
     frame = np.zeros((480, 640), np.uint8)
-    with pytest.raises(ValueError, match='working size'):
+    with pytest.raises(ValueError, match='any resolution'):
         tracker.process(frame, np.zeros((100, 100), np.uint8))
-    tracker.process(frame, np.zeros((240, 320), np.uint8))
-    tracker.process(frame, np.zeros((480, 640), np.uint8))
+    # A cue stage at another working width (here 160): its mask is brought to the tracker's.
+    moving = np.zeros((120, 160), np.uint8)
+    moving[30:60, 70:90] = 255
+    assert tracker._at_working('mask', moving, (480, 640)).shape == (240, 320)
+    assert np.count_nonzero(tracker._at_working('mask', moving, (480, 640))) == 4 * np.count_nonzero(moving)
 
 
 def test_the_filter_follows_a_change_of_frame_size() -> None:

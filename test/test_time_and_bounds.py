@@ -108,6 +108,24 @@ def test_frames_that_never_reach_the_tracker_are_counted_from_their_masks() -> N
     assert diagnostics['frames_never_received'] == 2
 
 
+def test_a_mask_of_another_frame_shape_is_counted_and_the_frame_tracked_without_it() -> None:
+    """A mask at any resolution of the frame is used; one of another shape is rejected, counted."""
+    frames = list(read_frames('bags/head_basic'))[:3]
+    rclpy.init()
+    node = TrackerNode(subscribe_image=False)
+    results = []
+    try:
+        for index, motion in enumerate([np.zeros((120, 160), np.uint8), np.zeros((100, 100), np.uint8), None]):
+            image = message_to_bgr8(frames[index].message)
+            header = _header(array_to_image(image, 'bgr8'), index / 30)
+            results.append(node.process_frame(image, header, motion=motion))
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    assert node.counters.processed == 3 and all(r is not None for r in results)
+    assert node.counters.rejected_reasons == {'mask_size': 1}
+
+
 def test_zero_and_negative_time_steps_do_not_break_the_core() -> None:
     """The core works per frame: repeated frames (dt = 0) are just more evidence."""
     tracker = TargetTracker(head_and_shoulders(), TrackerParameters(), TargetParameters())

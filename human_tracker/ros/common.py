@@ -54,7 +54,7 @@ def declare(
 
 WORKING_WIDTH_DESCRIPTION = (
     'Frames wider than this many pixels are reduced to it before processing (area averaging); masks are '
-    'published at that size. 0: full size. Give every stage the same value.'
+    'published at that size. 0: full size. The same value in every stage spares the tracker resizing masks.'
 )
 
 

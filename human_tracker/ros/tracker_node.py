@@ -25,7 +25,7 @@ from human_tracker.ros.common import RESULT_QOS, WORKING_WIDTH_DESCRIPTION, decl
 from human_tracker.ros.image_conversion import ImageConversionError, array_to_image, image_to_array
 from human_tracker.ros.stage import DEFERRED, ImageStage, ParameterSpec, spin_node, stamp_ns
 from human_tracker.vision.camera import metric_positions
-from human_tracker.vision.resolution import working_shape
+from human_tracker.vision.resolution import same_frame
 from human_tracker.vision.target import TargetParameters, TargetResult, TargetTracker, parameters_for
 from human_tracker.vision.templates import make_template
 from human_tracker.vision.tracker import TrackerParameters
@@ -312,20 +312,18 @@ class TrackerNode(ImageStage):
             )
         self.last_tracked_ns = stamp
         size = image.shape[:2]
-        # Cue stages publish at the working resolution; a full-size mask is reduced by the tracker.
-        sizes = (size, working_shape(size, self.tracker.parameters.working_width))
-        if motion is not None and motion.shape not in sizes:
+        # Cue stages publish at their working resolution: any size of this frame will do.
+        if motion is not None and not same_frame(motion.shape, size):
             self.counters.reject('mask_size')
             self.get_logger().warn(
-                f'mask {motion.shape} matches neither image {size} nor working size {sizes[1]}: tracking without it',
+                f'mask {motion.shape} cannot be image {size} at any resolution: tracking without it',
                 throttle_duration_sec=5.0,
             )
             motion = None
-        if skin is not None and skin.shape not in sizes:
+        if skin is not None and not same_frame(skin.shape, size):
             self.counters.reject('skin_size')
             self.get_logger().warn(
-                f'skin labels {skin.shape} match neither image {size} nor working size {sizes[1]}: '
-                'tracking without them',
+                f'skin labels {skin.shape} cannot be image {size} at any resolution: tracking without them',
                 throttle_duration_sec=5.0,
             )
             skin = None

@@ -13,7 +13,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-__all__ = ['working_scale', 'working_shape', 'to_working']
+__all__ = ['same_frame', 'working_scale', 'working_shape', 'to_working']
 
 
 def working_scale(width: int, working_width: int) -> float:
@@ -34,6 +34,16 @@ def working_shape(shape: tuple[int, ...], working_width: int) -> tuple[int, int]
     if scale == 1.0:
         return shape[0], shape[1]
     return max(1, round(shape[0] * scale)), max(1, round(shape[1] * scale))
+
+
+def same_frame(shape: tuple[int, ...], frame_shape: tuple[int, ...]) -> bool:
+    """Whether an image of ``shape`` can be ``frame_shape``'s frame at another resolution.
+
+    Its width and height must scale by the same factor, to within one pixel of rounding.
+    """
+    height, width = shape[:2]
+    frame_height, frame_width = frame_shape[:2]
+    return height > 0 and width > 0 and abs(width * frame_height / frame_width - height) <= 1.0
 
 
 def to_working(image: np.ndarray, working_width: int, *, mask: bool = False) -> np.ndarray:

@@ -38,7 +38,7 @@ from human_tracker.vision.initialisation import blobs, moments_state, state_from
 from human_tracker.vision.measurement import edge_map
 from human_tracker.vision.morphology import disk
 from human_tracker.vision.particle_filter import gaussian_cloud
-from human_tracker.vision.resolution import to_working, working_scale, working_shape
+from human_tracker.vision.resolution import same_frame, to_working, working_scale, working_shape
 from human_tracker.vision.templates import ContourTemplate
 from human_tracker.vision.tracker import ContourTracker, TrackerParameters, TrackEstimate, state_from_box
 
@@ -339,9 +339,9 @@ class TargetTracker:
         Args:
             image: ``(H, W) uint8`` intensity image, or ``(H, W, 3) uint8`` BGR image.
             motion: Optional ``uint8`` mask, non-zero on moving pixels (foreground or
-                optical-flow motion) of the same frame: ``(H, W)`` or at the working
-                resolution (what a cue stage with the same ``working_width`` publishes).
-            skin: Optional ``uint8`` skin labels of the same frame, non-zero on skin; same sizes.
+                optical-flow motion) of the same frame, at any resolution of it (a cue stage
+                publishes at its own working width); it is brought to the working size.
+            skin: Optional ``uint8`` skin labels of the same frame, likewise.
 
         Returns:
             The outcome, its estimate in the camera's pixels.
@@ -416,15 +416,15 @@ class TargetTracker:
         self.filter.parameters = self.filter_parameters.scaled(scale)
 
     def _at_working(self, name: str, mask: np.ndarray | None, shape: tuple[int, int]) -> np.ndarray | None:
-        """A cue mask at the working resolution; it may come at the frame's size or at that one."""
+        """A cue mask of the frame ``shape``, at any resolution, brought to the working one."""
         if mask is None:
             return None
         working = working_shape(shape, self.parameters.working_width)
         if mask.shape == working:
             return mask
-        if mask.shape == shape:
-            return to_working(mask, self.parameters.working_width, mask=True)
-        raise ValueError(f'{name} {mask.shape} match neither the image {shape} nor its working size {working}')
+        if not same_frame(mask.shape, shape):
+            raise ValueError(f'{name} {mask.shape} cannot be the image {shape} at any resolution')
+        return cv2.resize(mask, (working[1], working[0]), interpolation=cv2.INTER_NEAREST)
 
     def _to_camera(self, estimate: TrackEstimate) -> TrackEstimate:
         """``estimate`` (working pixels) in camera pixels."""

@@ -312,21 +312,8 @@ class TrackerNode(ImageStage):
             )
         self.last_tracked_ns = stamp
         size = image.shape[:2]
-        # Cue stages publish at their working resolution: any size of this frame will do.
-        if motion is not None and not same_frame(motion.shape, size):
-            self.counters.reject('mask_size')
-            self.get_logger().warn(
-                f'mask {motion.shape} cannot be image {size} at any resolution: tracking without it',
-                throttle_duration_sec=5.0,
-            )
-            motion = None
-        if skin is not None and not same_frame(skin.shape, size):
-            self.counters.reject('skin_size')
-            self.get_logger().warn(
-                f'skin labels {skin.shape} cannot be image {size} at any resolution: tracking without them',
-                throttle_duration_sec=5.0,
-            )
-            skin = None
+        motion = self._of_frame(motion, size, 'mask', 'mask_size')
+        skin = self._of_frame(skin, size, 'skin labels', 'skin_size')
         if self.init_box is not None and not self.tracker.filter.initialised:
             self.tracker.initialise_from_box(self.init_box)
         result = self.tracker.process(image, motion, skin)
@@ -352,6 +339,20 @@ class TrackerNode(ImageStage):
             )
             self.debug_pub.publish(array_to_image(debug, 'bgr8', header))
         return result
+
+    def _of_frame(self, mask: np.ndarray | None, size: tuple[int, ...], what: str, reason: str) -> np.ndarray | None:
+        """``mask`` if it can be the frame of ``size`` at some resolution, else None (rejected as ``reason``).
+
+        Cue stages publish at their own working width, so any resolution of the frame will do.
+        """
+        if mask is None or same_frame(mask.shape, size):
+            return mask
+        self.counters.reject(reason)
+        self.get_logger().warn(
+            f'{what} {mask.shape} cannot be image {size} at any resolution: tracking without it',
+            throttle_duration_sec=5.0,
+        )
+        return None
 
     def _publish(self, result: TargetResult, header: Any, shape: tuple[int, ...]) -> None:
         estimate = result.estimate

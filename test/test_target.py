@@ -149,3 +149,33 @@ def test_reports_the_target_lost_while_the_person_is_away() -> None:
     assert back is not None and back <= 75 + 15
     # The person who stands still is foreground, so the same setting keeps tracking them.
     assert track('head_stop_and_go', 'background', lost_motion_support=0.05).precision(slice(75, 105)) >= 0.9
+
+
+def test_the_search_elsewhere_is_skipped_only_when_no_hypothesis_could_win() -> None:
+    """While tracking, a hypothesis must beat the estimate's motion support by switch_margin, and
+    no support exceeds 1: the search runs on every frame where that is still possible, and only there."""
+    searched: list[bool] = []
+
+    class Recording(TargetTracker):
+        def hypothesis(self, *args: object, **kwargs: object) -> object:
+            searched[-1] = True
+            return super().hypothesis(*args, **kwargs)
+
+    margin = 0.2
+    tracker = Recording(head_and_shoulders(), TrackerParameters(), TargetParameters(switch_margin=margin))
+    background = BackgroundModel()
+    skipped = 0
+    for frame, gray in _frames('head_basic'):
+        if not tracker.filter.initialised:
+            tracker.initialise_from_box(frame.ground_truth)
+        was_tracking = tracker.status == 'TRACKING'
+        searched.append(False)
+        result = tracker.process(gray, background.apply(to_working(gray, tracker.parameters.working_width)))
+        if result.initialised or not was_tracking:
+            assert searched[-1]
+            continue
+        out_of_reach = result.estimate.motion_support + margin > 1.0
+        assert searched[-1] != out_of_reach
+        skipped += out_of_reach
+    print(f'search skipped on {skipped} of {len(searched)} frames')
+    assert 0 < skipped < len(searched)

@@ -26,7 +26,7 @@ from human_tracker.vision.resolution import to_working, working_scale
 __all__ = ['FLOW_PARAMETERS', 'OpticalFlowNode', 'main']
 
 FLOW_PARAMETERS = (
-    ParameterSpec('method', 'Dense flow method: dis_ultrafast, dis_fast, dis_medium or farneback.'),
+    ParameterSpec('method', 'Dense flow method: dis_patches, dis_ultrafast, dis_fast, dis_medium or farneback.'),
     ParameterSpec('min_magnitude', 'Flow below this (pixels/frame) counts as zero.', 0.0, 100.0),
     ParameterSpec(
         'min_texture', 'Texture energy below which flow is not trusted (aperture problem); 0: trust all.', 0.0, 1e9

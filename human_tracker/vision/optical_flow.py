@@ -35,25 +35,42 @@ __all__ = [
     'texture_energy',
 ]
 
-FLOW_METHODS = ('dis_ultrafast', 'dis_fast', 'dis_medium', 'farneback')
-"""Dense flow methods: OpenCV's DIS at three presets, and Farneback's polynomial expansion."""
+FLOW_METHODS = ('dis_patches', 'dis_ultrafast', 'dis_fast', 'dis_medium', 'farneback')
+"""Dense flow methods: OpenCV's DIS (its patch search alone, or one of its three presets),
+and Farneback's polynomial expansion.
+
+``dis_patches`` is the ``dis_fast`` preset with patches every 3 pixels instead of 4 and
+without the variational refinement, which smooths the field but took 0.6 of its 1.2 ms at
+320x240; the motion mask only asks whether |f| is above noise. On our bags and the real
+sequences, three seeds, the flow cue tracked as well with it as with ``dis_fast`` (mean
+precision at 20 px 0.825 against 0.818) in half the time.
+"""
 
 _DIS_PRESETS = {
+    'dis_patches': cv2.DISOPTICAL_FLOW_PRESET_FAST,
     'dis_ultrafast': cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST,
     'dis_fast': cv2.DISOPTICAL_FLOW_PRESET_FAST,
     'dis_medium': cv2.DISOPTICAL_FLOW_PRESET_MEDIUM,
 }
 
 
+def _create_dis(method: str) -> cv2.DISOpticalFlow:
+    dis = cv2.DISOpticalFlow_create(_DIS_PRESETS[method])
+    if method == 'dis_patches':
+        dis.setPatchStride(3)
+        dis.setVariationalRefinementIterations(0)
+    return dis
+
+
 def dense_flow(
-    previous: np.ndarray, current: np.ndarray, method: str = 'dis_fast', _dis: object | None = None
+    previous: np.ndarray, current: np.ndarray, method: str = 'dis_patches', _dis: object | None = None
 ) -> np.ndarray:
     """Flow from ``previous`` to ``current`` (both ``(H, W) uint8``): ``(H, W, 2) float32`` pixels."""
     if method == 'farneback':
         return cv2.calcOpticalFlowFarneback(previous, current, None, 0.5, 3, 15, 3, 5, 1.2, 0)
     if method not in _DIS_PRESETS:
         raise ValueError(f'unknown flow method {method!r}; one of {", ".join(FLOW_METHODS)}')
-    dis = _dis if _dis is not None else cv2.DISOpticalFlow_create(_DIS_PRESETS[method])
+    dis = _dis if _dis is not None else _create_dis(method)
     return dis.calc(previous, current, None)
 
 
@@ -149,7 +166,7 @@ class FlowParameters:
             (head_cluttered 0.94 -> 0.72 precision at 20 px), so full size is the default.
     """
 
-    method: str = 'dis_fast'
+    method: str = 'dis_patches'
     min_magnitude: float = 0.5
     min_texture: float = 400.0
     median_size: int = 5
@@ -215,11 +232,12 @@ class OpticalFlow:
             self.previous = gray.copy()
             return np.zeros((*full_shape, 2), np.float32), np.zeros(full_shape, np.uint8)
         if self._dis is None and p.method in _DIS_PRESETS:
-            self._dis = cv2.DISOpticalFlow_create(_DIS_PRESETS[p.method])
+            self._dis = _create_dis(p.method)
         # Flow is computed backwards (current -> previous) and negated, so that it lives on
         # the current frame's pixel grid: the mask then marks where things are now, not
         # where they were one frame ago.
-        flow = -dense_flow(gray, self.previous, p.method, self._dis)
+        flow = dense_flow(gray, self.previous, p.method, self._dis)
+        np.negative(flow, out=flow)
         if angular_velocity is not None and camera_matrix is not None and dt > 0:
             scaled_k = np.diag([p.scale, p.scale, 1.0]) @ camera_matrix
             flow -= rotation_flow(gray.shape, scaled_k, angular_velocity, dt)

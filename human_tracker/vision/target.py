@@ -367,7 +367,9 @@ class TargetTracker:
         estimate = self.filter.step(edges, likelihood_motion, likelihood_skin) if self.filter.initialised else None
         initialised = False
         region = self.initial_region(motion, skin)
-        found = self.hypothesis(region, edges, motion, likelihood_skin) if region is not None else None
+        found = None
+        if region is not None and self._may_switch(estimate):
+            found = self.hypothesis(region, edges, motion, likelihood_skin)
         if found is not None and self._should_start(found, estimate):
             self.filter.initialise(found.state)
             estimate = self.filter.step(edges, likelihood_motion, likelihood_skin)
@@ -388,6 +390,13 @@ class TargetTracker:
             # comes back only through a hypothesis (an edge fit on clutter is not the person).
             self.status = TRACKING
         return TargetResult(self.status, estimate, initialised)
+
+    def _may_switch(self, estimate: TrackEstimate | None) -> bool:
+        """Whether a hypothesis could start the filter: not while the estimate's motion support is
+        within ``switch_margin`` of 1, since no hypothesis's support exceeds 1 (the search is skipped)."""
+        if self.status != TRACKING or estimate is None:
+            return True
+        return estimate.motion_support + self.parameters.switch_margin <= 1.0
 
     def _should_start(self, found: Hypothesis, estimate: TrackEstimate | None) -> bool:
         """Start on a hypothesis when there is no target, or when it is clearly better elsewhere."""

@@ -200,13 +200,15 @@ def _acceptance(results: dict[str, object]) -> list[dict[str, object]]:
     by_sequence: dict[str, dict[str, float]] = {}
     for row in results.get('accuracy', []):  # type: ignore[union-attr]
         name = 'ours' if str(row['tracker']).startswith('ours') else str(row['tracker'])
-        by_sequence.setdefault(str(row['sequence']), {})[name] = float(row['precision_20px'])
+        # Mean over the runs: one seed of ours, or one draw of MIL, is luck on a hard sequence.
+        precision = row.get('precision_20px_mean', row['precision_20px'])
+        by_sequence.setdefault(str(row['sequence']), {})[name] = float(precision)
     for sequence, scores in by_sequence.items():
         rivals = [scores[name] for name in ('CamShift', 'MIL', 'KCF') if name in scores]
         bar = max(rivals, default=0.0)
         checks.append(
             {
-                'check': f'{sequence}: precision at 20 px >= CamShift, MIL, KCF',
+                'check': f'{sequence}: mean precision at 20 px >= CamShift, MIL, KCF',
                 'measured': scores['ours'],
                 'bar': bar,
                 'met': scores['ours'] >= bar,
@@ -281,7 +283,11 @@ def main(argv: list[str] | None = None) -> int:
         sequences += [options.real_data / name for name in ('david', 'crossing') if (options.real_data / name).exists()]
         results['accuracy'] = _accuracy(sequences, contrib)
         columns = ['sequence', 'tracker', 'precision_20px', 'success_auc', 'mean_centre_error_px', 'ms_per_frame']
-        report += ['## accuracy (same frames, same first box)\n', _table(results['accuracy'], columns)]
+        columns += ['runs', 'precision_20px_mean', 'precision_20px_min', 'precision_20px_max']
+        report += [
+            '## accuracy (same frames, same first box; figures of the first run, precision over all runs)\n',
+            _table(results['accuracy'], columns),
+        ]
         results['skin'] = _skin(options.real_data)
         columns = ['sequence', 'truth', 'precision', 'recall', 'labelled_fraction', 'regions', 'regions_found']
         report += ['## skin labels (§3.2) against true skin\n', _table(results['skin'], columns)]

@@ -112,6 +112,7 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
     use_skin = target == 'hand' if options.skin is None else options.skin
     segmenter = SkinSegmenter(default_skin_model()) if use_skin else None
     grey_frames = 0
+    motion_set_aside = 0
     predicted: list[Box | None] = []
     truth: list[Box | None] = []
     writer = None
@@ -150,6 +151,7 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
                 tracker.initialise_from_box(options.init)
             result = tracker.process(frame.image if frame.image.ndim == 3 else gray, motion, skin)
             elapsed += time.perf_counter() - start
+            motion_set_aside += result.motion_set_aside
             estimate = result.estimate
             box = estimate.box if result.tracking else None
             predicted.append(box)
@@ -189,6 +191,7 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
         'skin': use_skin,
         'working_width': target_parameters.working_width,
         'frames_without_colour': grey_frames,
+        'frames_motion_set_aside': motion_set_aside,
         'init': list(options.init) if options.init is not None else 'motion',
         'frames': len(predicted),
         'frames_processed': len(predicted) - sum(rejected.values()),

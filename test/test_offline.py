@@ -181,3 +181,5 @@ def test_real_sequence_david(tmp_path) -> None:
     print(f'david: precision at 20 px {precision:.3f}, success AUC {auc:.3f}, {summary["fps"]} fps')
     assert summary['frames'] == 462
     assert summary['precision_20px'] >= 0.75
+    # The camera moves with the man: the foreground covers most of nearly every frame.
+    assert summary['frames_motion_set_aside'] >= 400

@@ -114,6 +114,7 @@ def test_motion_stage_and_tracker_in_separate_processes(
     print(f'tracker_node diagnostics: {diagnostics}')
     assert diagnostics.get('frames_processed') == str(len(frames))
     assert diagnostics.get(f'frames_without_{motion_input}') == '0'
+    assert diagnostics.get('frames_motion_set_aside') == '0'  # a fixed camera: every mask is used
     assert [box is not None for box in over_dds] == [box is not None for box in offline.boxes]
     for dds_box, core_box in zip(over_dds, offline.boxes, strict=True):
         if core_box is not None:

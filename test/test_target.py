@@ -179,3 +179,27 @@ def test_the_search_elsewhere_is_skipped_only_when_no_hypothesis_could_win() -> 
         skipped += out_of_reach
     print(f'search skipped on {skipped} of {len(searched)} frames')
     assert 0 < skipped < len(searched)
+
+
+def test_a_mask_over_most_of_the_frame_is_set_aside() -> None:
+    """A mask over more than max_motion_fraction of the frame (a moving camera) is tracked as no mask."""
+    frames = _frames('head_basic')[:20]
+    everything = np.full((240, 320), 255, np.uint8)
+
+    def run(mask: np.ndarray | None, fraction: float = 0.5) -> list:
+        tracker = TargetTracker(
+            head_and_shoulders(), TrackerParameters(), TargetParameters(max_motion_fraction=fraction)
+        )
+        tracker.initialise_from_box(frames[0][0].ground_truth)
+        return [tracker.process(gray, mask) for _, gray in frames]
+
+    set_aside, without = run(everything), run(None)
+    assert all(r.motion_set_aside for r in set_aside) and not any(r.motion_set_aside for r in without)
+    for a, b in zip(set_aside, without, strict=True):
+        np.testing.assert_array_equal(a.estimate.state, b.estimate.state)
+    # Allowed to cover the frame, the same mask is used: the track differs.
+    kept = run(everything, fraction=1.0)
+    assert not any(r.motion_set_aside for r in kept)
+    assert any(not np.array_equal(a.estimate.state, b.estimate.state) for a, b in zip(kept, without, strict=True))
+    with pytest.raises(ValueError, match='max_motion_fraction'):
+        TargetParameters(max_motion_fraction=0.0).validate()

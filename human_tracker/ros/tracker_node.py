@@ -67,6 +67,12 @@ TARGET_PARAMETERS = (
         'colour_mode',
         'How skin enters: off, weighted (colour term γ of §3.2) or mask (edges near skin regions only).',
     ),
+    ParameterSpec(
+        'max_motion_fraction',
+        'A motion mask over more of the frame than this is set aside (camera moved, light changed); 1: keep all.',
+        0.01,
+        1.0,
+    ),
     ParameterSpec('skin_margin', 'Dilation (pixels) of skin regions in the mask colour mode.', 0, 100),
     ParameterSpec('init_region', 'Region X_0 comes from: motion or skin.'),
     ParameterSpec('init_method', 'Initialisation from the moving region: scan (§2.5.2, head) or moments (§2.5.1).'),
@@ -204,6 +210,7 @@ class TrackerNode(ImageStage):
         # Frames a cue stage received but this node never did (lost on the way to it), told
         # apart from masks that came after their frame was tracked without them.
         self.frames_never_received = 0
+        self.frames_motion_set_aside = 0
         self.recently_tracked: deque[int] = deque(maxlen=4 * self.max_pending)
         # Masks queue as deep as the frames that may wait for them, so none is dropped.
         mask_qos = QoSProfile(
@@ -318,6 +325,12 @@ class TrackerNode(ImageStage):
             self.tracker.initialise_from_box(self.init_box)
         result = self.tracker.process(image, motion, skin)
         self.last_result = result
+        if result.motion_set_aside:
+            self.frames_motion_set_aside += 1
+            self.get_logger().warn(
+                'the motion mask covers most of the frame (camera moving, or light changed?): tracking on edges alone',
+                throttle_duration_sec=5.0,
+            )
         self.counters.processed += 1
         if result.tracking:
             self._publish(result, header, size)
@@ -383,6 +396,7 @@ class TrackerNode(ImageStage):
             'particles': self.tracker.filter.parameters.num_particles,
             **{f'frames_without_{topic}': count for topic, count in self.unmatched.items()},
             'frames_never_received': self.frames_never_received,
+            'frames_motion_set_aside': self.frames_motion_set_aside,
             'frames_pending': len(self.pending),
         }
         result = self.last_result

@@ -3,7 +3,11 @@ and loss detection. This is what a node or the offline command runs per frame.
 
 Per frame: the edge map is computed; a motion mask (foreground of the background model, or
 optical-flow motion) enters the likelihood as eqs. 3-4 (``weighted``), or restricts the edges
-to moving pixels (``mask``, the variant §2.4.2 shows to fail when the person stops).
+to moving pixels (``mask``, the variant §2.4.2 shows to fail when the person stops). A mask
+over most of the frame is set aside (``max_motion_fraction``): the background model of
+§2.4.1 assumes a fixed camera, and when the camera moves (the real ``david`` sequence: 78 %
+of a frame foreground, median) every edge "moves", so the mask cannot tell the person from
+the room, and its region, the whole frame, is no X_0.
 
 The moving region's §2.5 estimate X_0 is a hypothesis, scored by the fraction of contour
 points that find an edge (best over a small cloud around X_0). It starts the filter when the
@@ -71,6 +75,9 @@ class TargetParameters:
     Attributes:
         motion_mode: ``off`` (eqs. 1-2), ``weighted`` (eqs. 3-4) or ``mask`` (edges on moving
             pixels only).
+        max_motion_fraction: A motion mask covering more of the frame than this isolates
+            nothing (the camera moved, the light changed): the frame is then tracked on its
+            edges alone (eq. 2) and gives no hypothesis. 1 keeps every mask.
         colour_mode: ``off``, ``weighted`` (the colour term of §3.2 in the likelihood) or
             ``mask`` (edges only within ``skin_margin`` of skin: skin regions delimit the fit).
         skin_margin: Dilation, pixels, of the skin regions in the ``mask`` colour mode.
@@ -107,6 +114,7 @@ class TargetParameters:
     """
 
     motion_mode: str = 'weighted'
+    max_motion_fraction: float = 0.5
     colour_mode: str = 'weighted'
     skin_margin: int = 4
     init_region: str = 'motion'
@@ -139,6 +147,8 @@ class TargetParameters:
         for name, allowed in choices.items():
             if getattr(self, name) not in allowed:
                 raise ValueError(f'{name} must be one of {", ".join(allowed)}, got {getattr(self, name)!r}')
+        if not 0.0 < self.max_motion_fraction <= 1.0:
+            raise ValueError(f'max_motion_fraction must be in (0, 1], got {self.max_motion_fraction}')
         if self.skin_margin < 0:
             raise ValueError(f'skin_margin must be >= 0, got {self.skin_margin}')
         if self.min_blob_area < 1:
@@ -221,11 +231,14 @@ class TargetResult:
         status: WAITING (never had a target), TRACKING, or LOST.
         estimate: The filter's estimate, None while WAITING.
         initialised: Whether the filter was (re)initialised on this frame.
+        motion_set_aside: Whether the frame's motion mask covered more than
+            ``max_motion_fraction`` of it and was not used.
     """
 
     status: str
     estimate: TrackEstimate | None
     initialised: bool = False
+    motion_set_aside: bool = False
 
     @property
     def tracking(self) -> bool:
@@ -349,6 +362,9 @@ class TargetTracker:
         self._rescale(working_scale(image.shape[1], self.parameters.working_width))
         p = self.parameters.scaled(self.scale)
         motion = self._at_working('motion mask', motion, image.shape[:2])
+        set_aside = motion is not None and int(np.count_nonzero(motion)) > p.max_motion_fraction * motion.size
+        if set_aside:
+            motion = None
         skin = self._at_working('skin labels', skin, image.shape[:2])
         if image.ndim == 3 and not p.colour_edges:
             image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
@@ -375,7 +391,7 @@ class TargetTracker:
             estimate = self.filter.step(edges, likelihood_motion, likelihood_skin)
             self.status, self.weak_frames, initialised = TRACKING, 0, True
         if estimate is None:
-            return TargetResult(self.status, None)
+            return TargetResult(self.status, None, motion_set_aside=set_aside)
         estimate = self._to_camera(estimate)
         weak = estimate.confidence < p.lost_confidence
         if motion is not None and estimate.motion_support < p.lost_motion_support:
@@ -389,7 +405,7 @@ class TargetTracker:
             # Without a region cue the edge fit is the only evidence; with one, a lost target
             # comes back only through a hypothesis (an edge fit on clutter is not the person).
             self.status = TRACKING
-        return TargetResult(self.status, estimate, initialised)
+        return TargetResult(self.status, estimate, initialised, set_aside)
 
     def _may_switch(self, estimate: TrackEstimate | None) -> bool:
         """Whether a hypothesis could start the filter: not while the estimate's motion support is

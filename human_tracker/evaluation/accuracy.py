@@ -5,9 +5,9 @@ protocol) and is scored on the annotated frames from there on. KCF and CSRT run 
 contrib virtualenv (``contrib_python``) on the same frames written as PNG files.
 
 A particle filter's track depends on its random draws, and on a hard sequence one draw can
-hold the target where another loses it (``david``: 0.31 to 0.96 precision at 20 px over six
-seeds). Ours therefore runs with ``SEEDS`` seeds, and MIL, which draws from OpenCV's global
-generator and is not reproducible, ``RANDOM_BASELINE_RUNS`` times; each row gives the first
+hold the target where another loses it. Ours therefore runs with ``SEEDS`` seeds, and MIL,
+which draws from OpenCV's global generator (each run in a process gives another track; a
+fresh process repeats the series), ``RANDOM_BASELINE_RUNS`` times; each row gives the first
 run's figures and the mean and range of the precision over the runs.
 """
 

@@ -55,6 +55,7 @@ _DIS_PRESETS = {
 
 
 def _create_dis(method: str) -> cv2.DISOpticalFlow:
+    """OpenCV's DIS flow object configured for ``method`` (one of the ``dis_*`` names)."""
     dis = cv2.DISOpticalFlow_create(_DIS_PRESETS[method])
     if method == 'dis_patches':
         dis.setPatchStride(3)

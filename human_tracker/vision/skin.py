@@ -19,6 +19,7 @@ the tracked region, within a bounded distance of what was learnt.
 
 from __future__ import annotations
 
+import functools
 import json
 from dataclasses import dataclass, field, replace
 from importlib import resources
@@ -89,11 +90,17 @@ class SkinClass:
     mean: np.ndarray
     covariance: np.ndarray
 
+    @functools.cached_property
+    def _inverse(self) -> np.ndarray:
+        return np.linalg.inv(self.covariance)
+
     def distance(self, chroma: np.ndarray) -> np.ndarray:
         """Mahalanobis distance of ``(..., 2)`` (I2, I3) values to the class; shape ``(...)``."""
         delta = np.asarray(chroma, dtype=np.float64) - self.mean
-        inverse = np.linalg.inv(self.covariance)
-        return np.sqrt(np.maximum(np.einsum('...i,ij,...j->...', delta, inverse, delta), 0.0))
+        (a, b), (c, d) = self._inverse
+        du, dv = delta[..., 0], delta[..., 1]
+        # The 2x2 quadratic form written out: a three-operand einsum took 0.1 ms per class and call.
+        return np.sqrt(np.maximum(a * du * du + (b + c) * du * dv + d * dv * dv, 0.0))
 
 
 @dataclass(frozen=True)

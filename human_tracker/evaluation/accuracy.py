@@ -52,12 +52,12 @@ def _contrib(name: str, folder: Path, init: Box, contrib_python: Path) -> tuple[
 
 def _row(tracker: str, runs: list[tuple[list[Box | None], float]], scored: list[Box | None]) -> dict[str, object]:
     """The first run's scores and ms per frame, and the precision's mean, min and max over ``runs``."""
-    precisions = [summarise(boxes, scored)['precision_20px'] for boxes, _ in runs]
-    boxes, ms = runs[0]
+    summaries = [summarise(boxes, scored) for boxes, _ in runs]
+    precisions = [summary['precision_20px'] for summary in summaries]
     return {
         'tracker': tracker,
-        **summarise(boxes, scored),
-        'ms_per_frame': round(ms, 3),
+        **summaries[0],
+        'ms_per_frame': round(runs[0][1], 3),
         'runs': len(runs),
         'precision_20px_mean': round(sum(precisions) / len(precisions), 3),
         'precision_20px_min': round(min(precisions), 3),

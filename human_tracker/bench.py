@@ -26,6 +26,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -43,6 +44,7 @@ from human_tracker.io.images import stamp_ns
 from human_tracker.ros.collector import PoseCollector
 from human_tracker.ros.image_conversion import array_to_image, message_to_bgr8
 from human_tracker.ros.processes import NodeProcess, use_ros_environment
+from human_tracker.threads import default_threads, use_threads
 
 __all__ = ['measure_latency', 'main']
 
@@ -228,6 +230,44 @@ def _accuracy(sequences: list[Path], contrib_python: Path | None) -> list[dict[s
     return rows
 
 
+def _thread_policy(sequence: Path, init: str | None, out: Path, runs: int = 3) -> list[dict[str, object]]:
+    """Offline frames per second with 1 thread and with every core, alone and beside two busy processes.
+
+    Each run is a fresh ``human_tracker track`` process (numba's cache warm); the busy
+    processes are CPU-bound Python loops, as other nodes on a robot's computer would be.
+    """
+    rows = []
+    busy_loop = [sys.executable, '-c', 'while True: pass']
+    for load in (0, 2):
+        busy = [subprocess.Popen(busy_loop) for _ in range(load)]
+        try:
+            for threads in (1, 0):
+                fps = []
+                for run in range(runs):
+                    folder = out / f'threads_{threads}_load_{load}_{run}'
+                    command = [sys.executable, '-m', 'human_tracker.cli', 'track', str(sequence), '--threads']
+                    command += [str(threads), '--no-video', '--quiet', '--out', str(folder)]
+                    command += ['--init', init] if init else []
+                    subprocess.run(command, check=True, capture_output=True)
+                    fps.append(float(json.loads((folder / 'summary.json').read_text())['fps']))
+                rows.append(
+                    {
+                        'sequence': sequence.name,
+                        'busy_processes': load,
+                        'threads': 'every core' if threads == 0 else threads,
+                        'fps_median': round(float(np.median(fps)), 1),
+                        'fps_min': round(min(fps), 1),
+                        'fps_max': round(max(fps), 1),
+                    }
+                )
+                print(json.dumps(rows[-1]))
+        finally:
+            for process in busy:
+                process.kill()
+                process.wait()
+    return rows
+
+
 def _skin(real_data: Path) -> list[dict[str, object]]:
     from human_tracker.evaluation.skin import labelled_video_scores, scene_scores
 
@@ -251,8 +291,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('--frames', type=int, default=240, help='frames per latency run (the bag is looped)')
     parser.add_argument('--contrib-python', type=Path, help='python of the virtualenv with opencv-contrib (KCF, CSRT)')
     parser.add_argument('--real-data', type=Path, default=Path('../shared/data/real'))
-    parser.add_argument('--sections', default='speed,accuracy,latency')
+    parser.add_argument('--sections', default='speed,accuracy,latency,threads')
     options = parser.parse_args(argv)
+    use_threads(default_threads())
     options.out.mkdir(parents=True, exist_ok=True)
     sections = set(options.sections.split(','))
     contrib = options.contrib_python if options.contrib_python and options.contrib_python.exists() else None
@@ -325,6 +366,15 @@ def main(argv: list[str] | None = None) -> int:
             'tracker_frames_never_received',
         ]
         report += ['## end-to-end latency over DDS\n', _table(rows, columns)]
+    if 'threads' in sections:
+        david = options.real_data / 'david'
+        sequence, init = (david, '122,58,75,97') if david.exists() else (options.bag, None)
+        results['threads'] = _thread_policy(sequence, init, options.out / 'threads')
+        columns = ['sequence', 'busy_processes', 'threads', 'fps_median', 'fps_min', 'fps_max']
+        report += [
+            '## thread policy: offline frames per second (3 runs each)\n',
+            _table(results['threads'], columns),
+        ]
     (options.out / 'results.json').write_text(json.dumps(results, indent=2) + '\n')
     (options.out / 'results.md').write_text('\n'.join(report))
     print('\n'.join(report))

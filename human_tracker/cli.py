@@ -47,8 +47,10 @@ def _box(text: str) -> tuple[float, float, float, float]:
 
 def _track(options: argparse.Namespace) -> int:
     from human_tracker.offline import TrackOptions, track_sequence
+    from human_tracker.threads import default_threads, use_threads
     from human_tracker.vision.tracker import TrackerParameters
 
+    use_threads(default_threads() if options.threads is None else options.threads)
     out = options.out or Path('out') / 'track' / Path(options.input).name
     settings = TrackOptions(
         target=options.target,
@@ -136,7 +138,10 @@ def main(argv: list[str] | None = None) -> int:
     generate = commands.add_parser('generate', help='render seeded synthetic scenes into rosbag2 bags')
     generate.add_argument('scene', nargs='*', default=[], help='scene names (see --all)')
     generate.add_argument('--all', action='store_true', help='every bundled scene')
-    generate.add_argument('--out', type=Path, default=Path('bags'), help='folder for the bags (default bags/)')
+    # Required: the bundled bags are replaced only when asked for by name (`make bags`).
+    generate.add_argument(
+        '--out', type=Path, required=True, help='folder for the bags (bags/ replaces the bundled ones)'
+    )
     generate.add_argument('--raw', action='store_true', help='raw bgr8 Image instead of JPEG CompressedImage')
     generate.add_argument('--storage', choices=('mcap', 'sqlite3'), default='mcap')
     generate.set_defaults(run=_generate)
@@ -173,6 +178,11 @@ def main(argv: list[str] | None = None) -> int:
     track.add_argument('--no-video', action='store_true', help='skip the annotated video')
     track.add_argument('--video-every', type=int, default=1, help='write every Nth frame to the video (default 1)')
     track.add_argument('--quiet', action='store_true', help='no progress bar')
+    track.add_argument(
+        '--threads',
+        type=int,
+        help='threads of the parallel loops (default: HUMAN_TRACKER_THREADS, else 1; 0: every core)',
+    )
     track.set_defaults(run=_track)
 
     evaluate = commands.add_parser('eval', help='score a poses.csv against ground truth (OTB metrics)')
@@ -184,13 +194,19 @@ def main(argv: list[str] | None = None) -> int:
     importer.add_argument('input', help='video file or folder of frames (optional groundtruth.txt)')
     importer.add_argument('--out', type=Path, required=True, help='bag folder to create')
     importer.add_argument('--groundtruth', help='groundtruth.txt (default: the folder own)')
-    importer.add_argument('--target', default='head', help='ground-truth topic /ground_truth/<target>')
+    importer.add_argument(
+        '--target',
+        choices=('head', 'hand'),
+        default='head',
+        help='what the ground truth outlines (topic /ground_truth/<target>; default head)',
+    )
     importer.add_argument('--storage', choices=('mcap', 'sqlite3'), default='mcap')
     importer.set_defaults(run=_import)
 
     trainer = commands.add_parser('train-skin', help='learn the skin classes of §3.2 from labelled colour samples')
     trainer.add_argument('samples', help='text file of "B G R class" lines, class 1 skin / 2 non-skin (UCI format)')
-    trainer.add_argument('--out', type=Path, default=Path('human_tracker/data/skin_model.json'))
+    # Required: nothing the package ships (its own skin_model.json) is written unless named.
+    trainer.add_argument('--out', type=Path, required=True, help='JSON file to write the classes to')
     trainer.add_argument('--classes', type=int, default=4, help='number of skin classes (default 4)')
     trainer.add_argument(
         '--coverage', type=float, default=0.95, help='fraction of skin samples the classes cover (default 0.95)'

@@ -4,7 +4,8 @@ Four OS processes on an isolated local DDS domain, as on a robot: ``bag_play`` p
 the bag, ``background_node`` segments the moving person, ``tracker_node`` tracks with that
 foreground as its motion cue (eqs. 3-4), and this process collects the poses. Writes to the output
 folder: ``tracking.mp4`` (annotated video), ``poses.csv`` and ``summary.json`` (frames,
-fps, precision at 20 px against the bag's ground truth).
+fps, precision at 20 px against the bag's ground truth). It fails (exit 1, one line saying
+why) when a pose is missing or the precision is below what the bag allows.
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ from human_tracker.ros.processes import NodeProcess, use_ros_environment
 from human_tracker.vision.templates import fit_state, head_and_shoulders
 from human_tracker.vision.tracker import box_from_state
 
-__all__ = ['run_demo', 'node_arguments', 'main']
+__all__ = ['run_demo', 'demo_problems', 'node_arguments', 'main']
 
 
 def node_arguments(
@@ -89,8 +90,19 @@ def run_demo(bag: Path, out: Path, *, domain_id: int | None = None, rate: float 
     )
     player = NodeProcess(
         'human_tracker.ros.bag_play',
-        # Both background_node and tracker_node subscribe to the camera.
-        [str(bag), '--rate', str(rate), '--wait-for-subscribers', camera_topic, '2'],
+        # Both background_node and tracker_node subscribe to the camera; the replay starts when
+        # both have compiled their kernels and spin (a subscriber alone may still be starting).
+        [
+            str(bag),
+            '--rate',
+            str(rate),
+            '--wait-for-subscribers',
+            camera_topic,
+            '2',
+            '--wait-for-ready',
+            str(background.ready_node),
+            str(tracker.ready_node),
+        ],
         env,
         out / 'bag_play.log',
     )
@@ -177,6 +189,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('--bag', type=Path, default=Path('bags/head_basic'))
     parser.add_argument('--out', type=Path, default=Path('out/demo'))
     parser.add_argument('--rate', type=float, default=1.0, help='replay rate factor')
+    parser.add_argument(
+        '--min-precision',
+        type=float,
+        default=0.95,
+        help='fail below this precision at 20 px (default 0.95; the bundled bag gives 1.0)',
+    )
     options = parser.parse_args(argv)
     summary = run_demo(options.bag, options.out, rate=options.rate)
     print(
@@ -185,7 +203,20 @@ def main(argv: list[str] | None = None) -> int:
         f'mean centre error {summary["mean_centre_error_px"]:.1f} px'
     )
     print(f'demo: wrote {options.out}/tracking.mp4, poses.csv, summary.json')
-    return 0
+    problems = demo_problems(summary, options.min_precision)
+    for problem in problems:
+        print(f'demo: FAILED: {problem} (logs of the nodes in {options.out})', file=sys.stderr)
+    return 1 if problems else 0
+
+
+def demo_problems(summary: dict[str, object], min_precision: float) -> list[str]:
+    """What is wrong with a demo run: missing poses, precision below ``min_precision``."""
+    problems = []
+    if summary['poses_received'] != summary['frames']:
+        problems.append(f'{summary["poses_received"]} poses for {summary["frames"]} frames')
+    if float(summary['precision_20px']) < min_precision:
+        problems.append(f'precision at 20 px {summary["precision_20px"]:.3f} < {min_precision}')
+    return problems
 
 
 if __name__ == '__main__':

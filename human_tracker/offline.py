@@ -30,7 +30,7 @@ from human_tracker.vision.resolution import to_working, working_scale
 from human_tracker.vision.skin import SkinSegmenter, default_skin_model, has_colour
 from human_tracker.vision.target import TargetParameters, TargetTracker, parameters_for
 from human_tracker.vision.templates import make_template
-from human_tracker.vision.tracker import TrackerParameters
+from human_tracker.vision.tracker import TrackerParameters, check_box_in_image
 
 __all__ = ['CUES', 'TrackOptions', 'track_sequence', 'POSE_COLUMNS']
 
@@ -148,6 +148,7 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
             elif segmenter is not None:
                 grey_frames += 1
             if frame.index == 0 and options.init is not None:
+                check_box_in_image(options.init, frame.image.shape)
                 tracker.initialise_from_box(options.init)
             result = tracker.process(frame.image if frame.image.ndim == 3 else gray, motion, skin)
             elapsed += time.perf_counter() - start
@@ -209,10 +210,23 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
 
 
 def read_poses(path: str | Path) -> list[Box | None]:
-    """Boxes from a ``poses.csv`` written by :func:`track_sequence` (None where not tracked)."""
+    """Boxes from a ``poses.csv`` written by :func:`track_sequence` (None where not tracked).
+
+    Raises:
+        ValueError: The file is not such a table (its header lacks the box columns, or a box
+            value is not a number); the message names the file.
+    """
+    columns = ('box_x', 'box_y', 'box_w', 'box_h')
     boxes: list[Box | None] = []
-    with Path(path).open() as handle:
-        for row in csv.DictReader(handle):
-            values = [row[k] for k in ('box_x', 'box_y', 'box_w', 'box_h')]
-            boxes.append(None if '' in values else tuple(float(v) for v in values))
+    try:
+        with Path(path).open(newline='') as handle:
+            reader = csv.DictReader(handle)
+            missing = [c for c in columns if c not in (reader.fieldnames or [])]
+            if missing:
+                raise ValueError(f'{path} is not a poses.csv written by `track`: no column {", ".join(missing)}')
+            for row in reader:
+                values = [row[k] for k in columns]
+                boxes.append(None if '' in values or None in values else tuple(float(v) for v in values))
+    except (UnicodeDecodeError, csv.Error) as err:
+        raise ValueError(f'{path} is not a poses.csv written by `track`: {err}') from err
     return boxes

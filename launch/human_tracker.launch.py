@@ -20,6 +20,8 @@ from launch_ros.parameter_descriptions import ParameterValue
 
 from launch import LaunchDescription
 
+PROFILE_VARIABLE = 'FASTRTPS_DEFAULT_PROFILES_FILE'
+
 
 def generate_launch_description() -> LaunchDescription:
     share = get_package_share_directory('human_tracker')
@@ -53,9 +55,11 @@ def generate_launch_description() -> LaunchDescription:
             DeclareLaunchArgument(
                 'single_process', default_value='true', description='one process (pipeline) or one per node'
             ),
-            # Camera frames between processes need a larger shared-memory segment than the default.
+            # Camera frames between processes need a larger shared-memory segment than the
+            # default; a profile the user already chose is kept.
             SetEnvironmentVariable(
-                'FASTRTPS_DEFAULT_PROFILES_FILE', os.path.join(share, 'config', 'fastdds_large_shm.xml')
+                PROFILE_VARIABLE,
+                os.environ.get(PROFILE_VARIABLE) or os.path.join(share, 'config', 'fastdds_large_shm.xml'),
             ),
             Node(
                 executable='pipeline',

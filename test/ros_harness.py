@@ -46,13 +46,24 @@ def replay_and_collect(
 ) -> PoseCollector:
     """Start ``nodes``, replay ``bag`` into them, return what was published (all frames or 20 s).
 
-    Every node must subscribe to the camera topic. With ``diagnostics_of``, ``expected`` is the
+    Every node must subscribe to the camera topic; the replay starts when each has said it
+    is ready. With ``diagnostics_of``, ``expected`` is the
     number of frames that node must report processed in /diagnostics (instead of poses).
     """
     nodes = nodes if isinstance(nodes, list) else [nodes]
+    ready = [node.ready_node for node in nodes if node.ready_node]
     player = NodeProcess(
         'human_tracker.ros.bag_play',
-        [str(bag), '--rate', str(rate), '--wait-for-subscribers', camera_topic, str(len(nodes))],
+        [
+            str(bag),
+            '--rate',
+            str(rate),
+            '--wait-for-subscribers',
+            camera_topic,
+            str(len(nodes)),
+            '--wait-for-ready',
+            *ready,
+        ],
         environment(),
         tmp / 'bag_play.log',
     )

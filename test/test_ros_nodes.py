@@ -166,7 +166,7 @@ def test_pipeline_follows_a_hand_with_the_skin_stage_in_process(tmp_path) -> Non
     args = node_arguments(COMPRESSED_CAMERA_TOPIC, True) + ['-p', 'target:=hand']
     pipeline = NodeProcess('human_tracker.ros.pipeline', args, environment(), tmp_path / 'pipeline.log')
     collector = replay_and_collect(pipeline, bag, COMPRESSED_CAMERA_TOPIC, tmp_path, len(frames))
-    assert 'ready: skin segmentation' in pipeline.output()
+    assert 'configured: skin segmentation' in pipeline.output()
     summary = summarise(_boxes(collector, frames, open_hand()), [f.ground_truth for f in frames])
     print(f'pipeline, target hand: {summary}')
     assert summary['precision_20px'] >= 0.9

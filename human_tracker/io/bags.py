@@ -15,7 +15,9 @@ from typing import TypeVar
 import cv2
 import numpy as np
 from rosbags.highlevel import AnyReader, AnyReaderError
-from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.interfaces import Connection
+from rosbags.rosbag2 import ReaderError, StoragePlugin, Writer
+from rosbags.rosbag2.storage_mcap import McapReader
 from rosbags.typesys import Stores, get_typestore
 
 from human_tracker.io.images import stamp_ns
@@ -25,6 +27,8 @@ from human_tracker.vision.camera import default_camera_matrix
 __all__ = [
     'BagError',
     'BagFrame',
+    'BareMcapReader',
+    'open_bag',
     'CAMERA_TOPIC',
     'COMPRESSED_CAMERA_TOPIC',
     'CAMERA_INFO_TOPIC',
@@ -206,11 +210,72 @@ class BagFrame:
     ground_truth: tuple[float, float, float, float] | None
 
 
-def _deserialize(reader: AnyReader, raw: bytes, msgtype: str, path: Path) -> object:
+def _deserialize(reader: AnyReader | BareMcapReader, raw: bytes, msgtype: str, path: Path) -> object:
     try:
         return reader.deserialize(raw, msgtype)
     except Exception as err:
         raise BagError(f'{path}: a {msgtype} message cannot be decoded ({type(err).__name__}: {err})') from err
+
+
+class BareMcapReader:
+    """Reads one ``.mcap`` file with no ``metadata.yaml`` beside it (as ``ros2 bag record`` can leave one).
+
+    The part of :class:`rosbags.highlevel.AnyReader`'s interface the package uses:
+    ``connections``, ``start_time``, ``messages(connections, start)`` and ``deserialize``;
+    the topics, types and counts come from the file's own summary.
+    """
+
+    def __init__(self, path: Path) -> None:
+        self.storage = McapReader(path)
+
+    @property
+    def connections(self) -> list[Connection]:
+        """The file's topics."""
+        return self.storage.connections
+
+    @property
+    def start_time(self) -> int:
+        """Timestamp of the first message, nanoseconds."""
+        return self.storage.metadata.start_time
+
+    def open(self) -> None:
+        """Read the file's summary."""
+        self.storage.open()
+
+    def close(self) -> None:
+        """Close the file."""
+        self.storage.close()
+
+    def messages(
+        self, connections: Iterable[Connection] = (), start: int | None = None
+    ) -> Iterator[tuple[Connection, int, bytes]]:
+        """``(connection, timestamp, raw)`` in time order, of ``connections`` (all when empty), from ``start``."""
+        yield from self.storage.messages(list(connections) or self.connections, start=start)
+
+    def deserialize(self, raw: bytes, msgtype: str) -> object:
+        """A message from its CDR bytes."""
+        return TYPESTORE.deserialize_cdr(raw, msgtype)
+
+    def __enter__(self) -> BareMcapReader:
+        self.open()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def open_bag(path: str | Path) -> AnyReader | BareMcapReader:
+    """An unopened reader of a rosbag2 bag: its folder, a file in it, or a bare ``.mcap`` file.
+
+    Raises:
+        BagError: Nothing is there.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise BagError(f'cannot read bag {path}: it does not exist')
+    if path.is_file() and path.suffix == '.mcap' and not (path.parent / 'metadata.yaml').exists():
+        return BareMcapReader(path)
+    return AnyReader([path.parent if path.is_file() else path], default_typestore=TYPESTORE)
 
 
 def ground_truth_target(path: str | Path) -> str | None:
@@ -222,9 +287,9 @@ def ground_truth_target(path: str | Path) -> str | None:
     path = Path(path)
     prefix = ground_truth_topic('')
     try:
-        with AnyReader([path.parent if path.is_file() else path], default_typestore=TYPESTORE) as reader:
+        with open_bag(path) as reader:
             topics = sorted(c.topic for c in reader.connections if c.topic.startswith(prefix))
-    except (AnyReaderError, OSError) as err:
+    except (AnyReaderError, ReaderError, OSError) as err:
         raise BagError(f'cannot read bag {path}: {err}') from err
     return topics[0][len(prefix) :] if topics else None
 
@@ -241,10 +306,8 @@ def read_frames(path: str | Path, *, camera_topic: str | None = None, target: st
         BagError: The bag is missing, unreadable, or has no such camera topic.
     """
     path = Path(path)
-    if path.is_file():
-        path = path.parent
     try:
-        with AnyReader([path], default_typestore=TYPESTORE) as reader:
+        with open_bag(path) as reader:
             cameras = [
                 c
                 for c in reader.connections
@@ -275,5 +338,5 @@ def read_frames(path: str | Path, *, camera_topic: str | None = None, target: st
                 msg = _deserialize(reader, raw, conn.msgtype, path)
                 stamp = stamp_ns(msg.header)
                 yield BagFrame(index, stamp, msg, truth.get(stamp))
-    except (AnyReaderError, OSError) as err:
+    except (AnyReaderError, ReaderError, OSError) as err:
         raise BagError(f'cannot read bag {path}: {err}') from err

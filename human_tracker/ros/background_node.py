@@ -60,7 +60,13 @@ class BackgroundNode(ImageStage):
         self.foreground_pub = self.create_publisher(Image, 'foreground', RESULT_QOS)
         self.background_pub = self.create_publisher(Image, 'background', RESULT_QOS)
         self.create_service(Trigger, '~/reset', self._on_reset)
-        self.get_logger().info('ready: background subtraction')
+        self.get_logger().info('configured: background subtraction')
+
+    def warm_up(self) -> None:
+        rng = np.random.default_rng(0)
+        probe = BackgroundModel(self.model.parameters)
+        for _ in range(2):
+            probe.apply(rng.integers(0, 256, (32, 32), dtype=np.uint8))
 
     def _apply(self, parameters: BackgroundParameters) -> None:
         self.model.parameters = parameters

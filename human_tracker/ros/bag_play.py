@@ -5,7 +5,10 @@ recorded rate scaled by ``--rate``, optionally looping, filtered with ``--topics
 renamed with ``--remap old:=new``. The publishers offer the QoS recorded in the bag's
 metadata where there is one (reliable, keep last 100 otherwise). Like ``ros2 bag play``,
 the services ``~/pause``, ``~/resume`` and ``~/toggle_paused`` (std_srvs/Trigger) control
-playback, and ``--start-paused`` waits for ``~/resume``.
+playback, and ``--start-paused`` waits for ``~/resume``. ``--wait-for-ready NODE ...`` holds
+the first message until each of those nodes has said it is ready (``NODE/ready``, latched:
+compiled, subscribed and spinning), so a replay loses nothing to a node still starting.
+``/diagnostics`` says what the player is doing and how many messages it published.
 """
 
 from __future__ import annotations
@@ -19,18 +22,21 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.time import Time
-from rosbags.highlevel import AnyReader, AnyReaderError
+from rosbags.highlevel import AnyReaderError
 from rosbags.interfaces import QosDurability, QosReliability
 from rosbags.rosbag2 import ReaderError
 from rosgraph_msgs.msg import Clock
+from std_msgs.msg import Bool
 from std_srvs.srv import Trigger
 
-from human_tracker.io.bags import BagError, guarded
+from human_tracker.io.bags import BagError, guarded, open_bag
+from human_tracker.ros.common import LATCHED_QOS, RESULT_QOS, node_status, publish_diagnostics
 
 __all__ = ['BagPlayer', 'main', 'message_class']
 
@@ -91,9 +97,7 @@ class BagPlayer(Node):
             raise ValueError(f'--rate must be > 0, got {rate}')
         self.bag = bag
         self.rate = rate
-        if not bag.exists():
-            raise ValueError(f'bag {bag} does not exist')
-        self.reader = AnyReader([bag])
+        self.reader = open_bag(bag)
         self.reader.open()
         remaps = remaps or {}
         self.connections = [c for c in self.reader.connections if not topics or c.topic in topics]
@@ -108,6 +112,10 @@ class BagPlayer(Node):
             )
         self.clock_pub = self.create_publisher(Clock, '/clock', 10) if clock else None
         self.published = 0
+        self.state = 'STARTING'
+        self.ready_nodes: set[str] = set()
+        self.diagnostics_pub = self.create_publisher(DiagnosticArray, '/diagnostics', RESULT_QOS)
+        self.create_timer(1.0, self._publish_diagnostics)
         self.playing = threading.Event()
         self.playing.set()
         self.create_service(Trigger, '~/pause', lambda _, response: self._set_paused(True, response))
@@ -126,6 +134,31 @@ class BagPlayer(Node):
         self.get_logger().info(response.message)
         return response
 
+    def _publish_diagnostics(self) -> None:
+        state = 'PAUSED' if self.state == 'PLAYING' and not self.playing.is_set() else self.state
+        values = {'bag': self.bag, 'messages_published': self.published, 'rate': self.rate}
+        publish_diagnostics(self, self.diagnostics_pub, [node_status(self, state, values, hardware_id='bag')])
+
+    def wait_for_ready(self, nodes: Sequence[str], timeout: float) -> list[str]:
+        """Block until every node in ``nodes`` (fully qualified names) published True on its ``ready``.
+
+        The executor must spin in another thread. Returns the nodes that did not within
+        ``timeout`` seconds.
+        """
+        self.state = 'WAITING_FOR_NODES'
+        for node in nodes:
+            topic = node.rstrip('/') + '/ready'
+
+            def on_ready(msg: Bool, node: str = node) -> None:
+                if msg.data:
+                    self.ready_nodes.add(node)
+
+            self.create_subscription(Bool, topic, on_ready, LATCHED_QOS)
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline and not set(nodes) <= self.ready_nodes:
+            time.sleep(0.05)
+        return sorted(set(nodes) - self.ready_nodes)
+
     def wait_for_subscribers(self, topic: str, count: int, timeout: float) -> bool:
         """Block until ``topic`` has ``count`` matched subscribers (or ``timeout`` seconds)."""
         publishers = [pub for pub in self.publishers_by_id.values() if pub.topic_name.lstrip('/') == topic.lstrip('/')]
@@ -143,6 +176,7 @@ class BagPlayer(Node):
 
         Time spent paused is added to the schedule, so playback resumes where it stopped.
         """
+        self.state = 'PLAYING'
         start_ns = self.reader.start_time + int(start_offset * 1e9)
         wall_start = time.monotonic()
         for conn, timestamp, raw in guarded(
@@ -163,6 +197,7 @@ class BagPlayer(Node):
 
     def finish(self, timeout: float = 5.0) -> None:
         """Wait until reliable subscribers have acknowledged what was sent, then close."""
+        self.state = 'FINISHED'
         for pub in self.publishers_by_id.values():
             pub.wait_for_all_acked(Duration(seconds=timeout))
         self.reader.close()
@@ -187,6 +222,13 @@ def _arguments(argv: Sequence[str]) -> argparse.Namespace:
         metavar=('TOPIC', 'COUNT'),
         help='wait until TOPIC has COUNT subscribers (timeout 30 s)',
     )
+    parser.add_argument(
+        '--wait-for-ready',
+        nargs='+',
+        default=[],
+        metavar='NODE',
+        help='wait until each node (e.g. /tracker_node) published True on NODE/ready (timeout 120 s)',
+    )
     return parser.parse_args(argv)
 
 
@@ -201,7 +243,7 @@ def main(args: list[str] | None = None) -> int:
     player = None
     executor = None
     spinner = None
-    bag = options.bag.parent if options.bag.is_file() else options.bag
+    bag = options.bag
     code = 0
     try:
         player = BagPlayer(
@@ -212,6 +254,9 @@ def main(args: list[str] | None = None) -> int:
         executor.add_node(player)
         spinner = threading.Thread(target=executor.spin, daemon=True)
         spinner.start()
+        late = player.wait_for_ready(options.wait_for_ready, 120.0) if options.wait_for_ready else []
+        if late:
+            player.get_logger().warn(f'playing although {", ".join(late)} did not say ready within 120 s')
         if options.wait_for_subscribers:
             topic, count = options.wait_for_subscribers
             if not player.wait_for_subscribers(topic, int(count), 30.0):

@@ -4,16 +4,20 @@ accounting and diagnostics."""
 from __future__ import annotations
 
 import time
+import weakref
 from dataclasses import dataclass, field
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.node import Node
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 
 __all__ = [
     'declare',
+    'as_declared',
+    'LATCHED_QOS',
     'declare_working_width',
     'WORKING_WIDTH_DESCRIPTION',
     'image_qos',
@@ -21,11 +25,55 @@ __all__ = [
     'FrameCounters',
     'StageTimer',
     'diagnostic_status',
+    'node_status',
     'publish_diagnostics',
 ]
 
 RESULT_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST)
 """Results (poses, masks, contours) are published reliably."""
+
+LATCHED_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+"""States a late subscriber must still get (``~/ready``): reliable, transient local, the last one."""
+
+# The Python type of each parameter declared through `declare`, per node: what a value given
+# as another type (an integer for a double) is converted to.
+_DECLARED_KINDS: weakref.WeakKeyDictionary[Node, dict[str, type]] = weakref.WeakKeyDictionary()
+
+
+def as_declared(parameter: Parameter, kind: type) -> Parameter:
+    """``parameter`` converted to ``kind`` where the command line's syntax is the only difference.
+
+    ``-p init_box:="[1, 2, 3, 4]"`` arrives as an integer array and ``-p source:=0`` as an
+    integer; a user means a double array and a string. Other types are left for rclpy to refuse.
+    """
+    value, types = parameter.value, Parameter.Type
+    if kind is float and parameter.type_ == types.INTEGER:
+        return Parameter(parameter.name, types.DOUBLE, float(value))
+    if kind is list and parameter.type_ == types.INTEGER_ARRAY:
+        return Parameter(parameter.name, types.DOUBLE_ARRAY, [float(v) for v in value])
+    if kind is str and parameter.type_ == types.INTEGER:
+        return Parameter(parameter.name, types.STRING, str(value))
+    return parameter
+
+
+def _accept_other_syntax(node: Node, name: str, default: Any) -> None:
+    """Let ``name`` take integers for a double (array) or a string, at start and at run time."""
+    if isinstance(default, bool) or not isinstance(default, (float, str, list)):
+        return
+    if isinstance(default, list) and not all(isinstance(v, float) for v in default):
+        return
+    kinds = _DECLARED_KINDS.get(node)
+    if kinds is None:
+        kinds = _DECLARED_KINDS[node] = {}
+        node.add_pre_set_parameters_callback(
+            lambda parameters: [as_declared(p, kinds[p.name]) if p.name in kinds else p for p in parameters]
+        )
+    kinds[name] = type(default)
+    # Values given at start (command line, YAML) do not pass the pre-set callbacks, so they are
+    # converted where rclpy keeps them (the attribute every rclpy since Foxy has).
+    overrides = getattr(node, '_parameter_overrides', {})
+    if name in overrides:
+        overrides[name] = as_declared(overrides[name], kinds[name])
 
 
 def declare(
@@ -38,7 +86,12 @@ def declare(
     high: float | None = None,
     read_only: bool = False,
 ) -> Any:
-    """Declare a parameter with its description and, for numbers, its allowed range."""
+    """Declare a parameter with its description and, for numbers, its allowed range.
+
+    A double (or double array) parameter also takes integers, a string parameter an integer
+    (see :func:`as_declared`).
+    """
+    _accept_other_syntax(node, name, default)
     descriptor = ParameterDescriptor(description=description, read_only=read_only)
     if low is not None and high is not None:
         if isinstance(default, bool):
@@ -165,19 +218,25 @@ def diagnostic_status(
     if level is None:
         level = DiagnosticStatus.OK if state in ('TRACKING', 'OK') else DiagnosticStatus.WARN
     values = {
-        'state': state,
         'input_rate_hz': f'{timer.rate_hz:.2f}',
         'processing_ms': f'{timer.mean_ms:.2f}',
-        **{f'frames_{k}': str(v) for k, v in counters.as_dict().items()},
-        **{f'rejected_{k}': str(v) for k, v in counters.rejected_reasons.items()},
-        **{k: str(v) for k, v in (extra or {}).items()},
+        **{f'frames_{k}': v for k, v in counters.as_dict().items()},
+        **{f'rejected_{k}': v for k, v in counters.rejected_reasons.items()},
+        **(extra or {}),
     }
+    return node_status(node, state, values, level=level)
+
+
+def node_status(
+    node: Node, state: str, values: dict[str, Any], *, level: bytes | None = None, hardware_id: str = 'camera'
+) -> DiagnosticStatus:
+    """A DiagnosticStatus named after ``node``: its state word, then ``values`` as text (OK unless told)."""
     return DiagnosticStatus(
-        level=level,
-        name=f'{node.get_fully_qualified_name()}',
+        level=DiagnosticStatus.OK if level is None else level,
+        name=node.get_fully_qualified_name(),
         message=state,
-        hardware_id='camera',
-        values=[KeyValue(key=k, value=v) for k, v in values.items()],
+        hardware_id=hardware_id,
+        values=[KeyValue(key=k, value=str(v)) for k, v in {'state': state, **values}.items()],
     )
 
 

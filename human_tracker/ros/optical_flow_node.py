@@ -62,7 +62,13 @@ class OpticalFlowNode(ImageStage):
         self.flow_pub = self.create_publisher(Image, 'flow', RESULT_QOS)
         self.use_camera_info()
         self.create_subscription(Vector3Stamped, 'angular_velocity', self._on_angular_velocity, RESULT_QOS)
-        self.get_logger().info(f'ready: optical flow ({parameters.method})')
+        self.get_logger().info(f'configured: optical flow ({parameters.method})')
+
+    def warm_up(self) -> None:
+        rng = np.random.default_rng(0)
+        probe = OpticalFlow(self.flow.parameters)
+        for _ in range(2):
+            probe.apply(rng.integers(0, 256, (32, 32), dtype=np.uint8))
 
     def _apply(self, parameters: FlowParameters) -> None:
         self.flow = OpticalFlow(parameters, previous=self.flow.previous)

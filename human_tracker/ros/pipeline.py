@@ -69,6 +69,7 @@ def build_pipeline() -> list[Node]:
         read_only=True,
     )
     skin_stage = SkinNode(subscribe_image=False) if use_skin else None
+    tracker.check_start(motion=stage_type is not None, skin=use_skin)
     camera = CameraSubscriber(motion_stage, skin_stage, tracker)
     stages = [stage for stage in (motion_stage, skin_stage) if stage is not None]
     return [selector, camera, *stages, tracker]

@@ -13,9 +13,19 @@ from collections.abc import Sequence
 from pathlib import Path
 from types import TracebackType
 
-__all__ = ['FASTDDS_PROFILE', 'ros_environment', 'use_ros_environment', 'NodeProcess']
+__all__ = ['FASTDDS_PROFILE', 'READY_NODES', 'ros_environment', 'use_ros_environment', 'NodeProcess']
 
 FASTDDS_PROFILE = Path(__file__).resolve().parents[2] / 'config' / 'fastdds_large_shm.xml'
+
+# The node of each executable whose ``ready`` says the executable can take frames (the
+# pipeline's camera subscriber warms every stage up before it says so).
+READY_NODES = {
+    'human_tracker.ros.background_node': '/background_node',
+    'human_tracker.ros.optical_flow_node': '/optical_flow_node',
+    'human_tracker.ros.skin_node': '/skin_node',
+    'human_tracker.ros.tracker_node': '/tracker_node',
+    'human_tracker.ros.pipeline': '/camera_subscriber',
+}
 
 
 def ros_environment(domain_id: int, base: dict[str, str] | None = None) -> dict[str, str]:
@@ -50,6 +60,7 @@ class NodeProcess:
 
     def __init__(self, module: str, args: Sequence[str], env: dict[str, str], log_path: Path) -> None:
         self.command = [sys.executable, '-m', module, *args]
+        self.ready_node = READY_NODES.get(module)
         self.env = env
         self.log_path = log_path
         self.process: subprocess.Popen[bytes] | None = None

@@ -52,6 +52,7 @@ class SkinNode(ImageStage):
             read_only=True,
         )
         model = SkinModel.load(model_file) if model_file else default_skin_model()
+        self.model = model
         parameters = self.bind_parameters(SkinParameters(), SKIN_PARAMETERS, self._apply)
         rate = declare(
             self,
@@ -81,9 +82,13 @@ class SkinNode(ImageStage):
             self.create_subscription(PolygonStamped, 'contour', self._on_contour, RESULT_QOS)
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.get_logger().info(
-            f'ready: skin segmentation, {len(model.classes)} classes'
+            f'configured: skin segmentation, {len(model.classes)} classes'
             + (f', adapting at {rate} from contour' if rate > 0 else '')
         )
+
+    def warm_up(self) -> None:
+        probe = SkinSegmenter(self.model, self.segmenter.parameters)
+        probe.segment(np.random.default_rng(0).integers(0, 256, (64, 64, 3), dtype=np.uint8), 1.0)
 
     def _apply(self, parameters: SkinParameters) -> None:
         self.segmenter.parameters = parameters

@@ -1,15 +1,21 @@
-"""The base of every image-processing node: input, accounting, diagnostics, parameters.
+"""The base of every image-processing node: input, accounting, diagnostics, parameters, readiness.
 
 A stage subscribes to ``image`` (or ``image/compressed``) unless a pipeline hands it frames
 in memory, converts each message once, counts every frame (processed, skipped, rejected),
 publishes ``/diagnostics`` periodically, and binds its algorithm's parameter dataclass to
 declared ROS parameters whose run-time changes are validated before they take effect.
+
+Readiness: once its executor spins, a stage compiles its kernels (:meth:`ImageStage.warm_up`)
+and then publishes ``True`` on ``~/ready`` (std_msgs/Bool, transient local) and ``ready`` in
+``/diagnostics``. A replay or a test starts feeding frames only then: a subscriber that
+exists is not yet a node that keeps up.
 """
 
 from __future__ import annotations
 
 import array
 import dataclasses
+import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -26,9 +32,11 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import CameraInfo, CompressedImage, Image
+from std_msgs.msg import Bool
 
 from human_tracker.io.images import stamp_ns
 from human_tracker.ros.common import (
+    LATCHED_QOS,
     RESULT_QOS,
     FrameCounters,
     StageTimer,
@@ -38,6 +46,7 @@ from human_tracker.ros.common import (
     publish_diagnostics,
 )
 from human_tracker.ros.image_conversion import ImageConversionError, message_to_bgr8
+from human_tracker.threads import default_threads, use_threads
 from human_tracker.vision.camera import default_camera_matrix
 
 __all__ = ['DEFERRED', 'ParameterSpec', 'ImageStage', 'run_nodes', 'spin_node', 'stamp_ns']
@@ -95,6 +104,21 @@ class ImageStage(Node):
         # and diagnostics (and the tracker's bounded waits) must go on.
         self.steady_clock = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(period, self._publish_diagnostics, clock=self.steady_clock)
+        threads = declare(
+            self,
+            'threads',
+            default_threads(),
+            'Threads of the parallel loops (numba, OpenCV) in this process; 0: every core. A busy '
+            'robot computer keeps a steadier frame rate with 1 (default: HUMAN_TRACKER_THREADS, else 1).',
+            low=0,
+            high=1024,
+            read_only=True,
+        )
+        self.threads = use_threads(threads)
+        self.ready = False
+        self.ready_pub = self.create_publisher(Bool, '~/ready', LATCHED_QOS)
+        # Fires once the executor spins, that is after every subclass has finished building.
+        self._ready_timer = self.create_timer(0.01, self._become_ready, clock=self.steady_clock)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         if subscribe_image:
             transport = declare(
@@ -111,6 +135,18 @@ class ImageStage(Node):
                 self.create_subscription(CompressedImage, 'image/compressed', self.on_image, qos)
             else:
                 self.create_subscription(Image, 'image', self.on_image, qos)
+
+    def warm_up(self) -> None:
+        """Compile and run the stage's kernels once on a small frame, so the first real frame is not late."""
+
+    def _become_ready(self) -> None:
+        self._ready_timer.cancel()
+        self.destroy_timer(self._ready_timer)
+        start = time.perf_counter()
+        self.warm_up()
+        self.ready = True
+        self.ready_pub.publish(Bool(data=True))
+        self.get_logger().info(f'ready ({time.perf_counter() - start:.1f} s to warm up)')
 
     def bind_parameters(self, instance: Any, specs: Sequence[ParameterSpec], apply: Callable[[Any], None]) -> Any:
         """Declare ``specs`` from the dataclass ``instance``'s defaults; return it with the declared values.
@@ -237,7 +273,7 @@ class ImageStage(Node):
 
     def _publish_diagnostics(self) -> None:
         state, extra = self.diagnostics_state()
-        extra = {'time_resets': self.time_resets, **extra}
+        extra = {'ready': self.ready, 'threads': self.threads, 'time_resets': self.time_resets, **extra}
         status = diagnostic_status(self, self.counters, self.timer_stats, state=state, extra=extra)
         publish_diagnostics(self, self.diagnostics_pub, [status])
 
@@ -249,7 +285,10 @@ def run_nodes(
     name: str = 'node',
     run: Callable[[list[Node]], None] | None = None,
 ) -> int:
-    """Init rclpy, build the nodes, run them (default: spin them all) until shutdown; return the exit code.
+    """Init rclpy, build the nodes, run them until shutdown; return the exit code.
+
+    By default the nodes are spun. With ``run``, ``run(nodes)`` works in this thread while
+    they are spun in another (their timers, services and parameters keep answering).
 
     A ValueError or an rclpy parameter error while building or running (a parameter out of
     range or of the wrong type, a missing file) is logged with its reason and gives exit code
@@ -261,11 +300,12 @@ def run_nodes(
     code = 0
     try:
         nodes = build()
+        for node in nodes:
+            executor.add_node(node)
         if run is not None:
+            threading.Thread(target=executor.spin, daemon=True).start()
             run(nodes)
         else:
-            for node in nodes:
-                executor.add_node(node)
             executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

@@ -28,7 +28,7 @@ from human_tracker.vision.camera import metric_positions
 from human_tracker.vision.resolution import same_frame
 from human_tracker.vision.target import TargetParameters, TargetResult, TargetTracker, parameters_for
 from human_tracker.vision.templates import make_template
-from human_tracker.vision.tracker import TrackerParameters
+from human_tracker.vision.tracker import TrackerParameters, check_box_in_image
 
 __all__ = ['FILTER_PARAMETERS', 'TARGET_PARAMETERS', 'TrackerNode', 'main']
 
@@ -117,6 +117,7 @@ TARGET_PARAMETERS = (
 )
 _UNKNOWN_VARIANCE = 1e3  # roll and pitch are not observed: a large variance says so
 _MOTION_INPUTS = ('none', 'foreground', 'motion')
+_REMEMBERED_STAMPS = 1000  # frames whose arrival is remembered (33 s at 30 Hz)
 # Typical adult widths of the reference regions, metres: head (ear to ear) and open hand.
 _TARGET_WIDTHS = {'head': 0.16, 'hand': 0.18}
 
@@ -208,10 +209,11 @@ class TrackerNode(ImageStage):
         self.masks: dict[str, OrderedDict[int, np.ndarray]] = {topic: OrderedDict() for topic in self.mask_topics}
         self.unmatched = dict.fromkeys(self.mask_topics, 0)
         # Frames a cue stage received but this node never did (lost on the way to it), told
-        # apart from masks that came after their frame was tracked without them.
+        # apart from masks that came after their frame was received: the stamps of the last
+        # _REMEMBERED_STAMPS frames that reached this node, in order (a dict as an ordered set).
         self.frames_never_received = 0
         self.frames_motion_set_aside = 0
-        self.recently_tracked: deque[int] = deque(maxlen=4 * self.max_pending)
+        self.received_stamps: OrderedDict[int, None] = OrderedDict()
         # Masks queue as deep as the frames that may wait for them, so none is dropped.
         mask_qos = QoSProfile(
             depth=4 * self.max_pending, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST
@@ -220,18 +222,45 @@ class TrackerNode(ImageStage):
             self.create_subscription(Image, topic, lambda msg, topic=topic: self._on_mask(topic, msg), mask_qos)
         if self.mask_topics:
             self.create_timer(0.02, self._drain, clock=self.steady_clock)
-        self._warm_up()
+        self.start_problem: str | None = None
+        if subscribe_image:
+            self.check_start(motion=bool(self.motion_input != 'none'), skin=skin_input)
         self.get_logger().info(
-            f'ready: tracking {target} with {filter_parameters.num_particles} particles, '
+            f'configured: tracking {target} with {filter_parameters.num_particles} particles, '
             f'{self.template.num_points} points, mask inputs: {", ".join(self.mask_topics) or "none"}'
         )
 
-    def _warm_up(self) -> None:
-        """Run the compiled kernels once so the first real frame is not slowed by JIT."""
-        probe = TargetTracker(self.template, TrackerParameters(num_particles=2, min_scale=1.0))
+    def check_start(self, *, motion: bool, skin: bool) -> None:
+        """Say (log, diagnostics) when these inputs can never start the tracker by itself.
+
+        Without ``init_box`` the filter starts from the region of ``init_region``: the motion
+        mask or the skin labels. A node given neither waits for ever; it is told at start.
+        """
+        if self.init_box is not None:
+            return
+        region = self.tracker.parameters.init_region
+        if (region == 'motion' and not motion) or (region == 'skin' and not skin):
+            needs = 'motion_input (foreground or motion)' if region == 'motion' else 'skin_input: true'
+            self.start_problem = (
+                f'cannot start by itself: init_region is {region} but no {region} input; set {needs}, or init_box'
+            )
+            self.get_logger().warn(self.start_problem)
+
+    def warm_up(self) -> None:
+        """Run the compiled kernels once, with this node's settings, so the first real frame is not late."""
+        filter_parameters = TrackerParameters(num_particles=2, min_scale=1.0)
+        probe = TargetTracker(self.template, filter_parameters, self.tracker.parameters)
         probe.filter.initialise(np.array([16.0, 16.0, 8.0, 0.0]))
+        rng = np.random.default_rng(0)
         blank = np.zeros((32, 32), dtype=np.uint8)
-        probe.process(np.zeros((32, 32, 3), dtype=np.uint8), blank, blank)
+        probe.process(rng.integers(0, 256, (32, 32, 3), dtype=np.uint8), blank, blank)
+
+    def on_image(self, msg: Any) -> None:
+        """Remember the stamp of every frame that reached this node, usable or not, then process it."""
+        self.received_stamps[stamp_ns(msg.header)] = None
+        while len(self.received_stamps) > _REMEMBERED_STAMPS:
+            self.received_stamps.popitem(last=False)
+        super().on_image(msg)
 
     def _apply_filter(self, parameters: TrackerParameters) -> None:
         self.tracker.set_filter_parameters(parameters)
@@ -244,7 +273,7 @@ class TrackerNode(ImageStage):
         self.tracker.reset()
         self.counters.skipped += len(self.pending)
         self.pending.clear()
-        self.recently_tracked.clear()
+        self.received_stamps.clear()
         for masks in self.masks.values():
             masks.clear()
         self.last_tracked_ns = -1
@@ -277,16 +306,17 @@ class TrackerNode(ImageStage):
                     f'frame tracked without its {topic} mask (none within {self.match_timeout} s)',
                     throttle_duration_sec=5.0,
                 )
-            self.recently_tracked.append(stamp)
             motion = found.get(self.motion_input)
             start = time.perf_counter()
             self.guarded(self.track, image, header, motion, found.get('skin'))
             self.timer_stats.took(time.perf_counter() - start)
         lost = set()
+        oldest_known = next(iter(self.received_stamps), None)
         for masks in self.masks.values():
             for stale in [s for s in masks if s <= self.last_tracked_ns]:
                 del masks[stale]
-                if stale not in self.recently_tracked:
+                # Older than every remembered stamp: unknown, so not counted.
+                if stale not in self.received_stamps and oldest_known is not None and stale > oldest_known:
                     lost.add(stale)
         if lost:
             self.frames_never_received += len(lost)
@@ -322,7 +352,13 @@ class TrackerNode(ImageStage):
         motion = self._of_frame(motion, size, 'mask', 'mask_size')
         skin = self._of_frame(skin, size, 'skin labels', 'skin_size')
         if self.init_box is not None and not self.tracker.filter.initialised:
-            self.tracker.initialise_from_box(self.init_box)
+            try:
+                check_box_in_image(self.init_box, size)
+                self.tracker.initialise_from_box(self.init_box)
+            except ValueError as err:
+                self.init_box = None
+                self.start_problem = f'init_box ignored: {err}'
+                self.get_logger().error(self.start_problem)
         result = self.tracker.process(image, motion, skin)
         self.last_result = result
         if result.motion_set_aside:
@@ -399,6 +435,8 @@ class TrackerNode(ImageStage):
             'frames_motion_set_aside': self.frames_motion_set_aside,
             'frames_pending': len(self.pending),
         }
+        if self.start_problem is not None:
+            extra['cannot_start'] = self.start_problem
         result = self.last_result
         if result is not None and result.estimate is not None:
             extra['confidence'] = f'{result.estimate.confidence:.3f}'

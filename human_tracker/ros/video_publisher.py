@@ -2,7 +2,8 @@
 
 Frames are stamped with the time they are published and ``frame_id`` (the camera's optical
 frame). ``camera_info`` comes from a calibration file in the ROS camera_calibration YAML
-format, or is the documented default (ideal pinhole, 60° horizontal field of view).
+format, or is the documented default (ideal pinhole, 60° horizontal field of view). The node
+spins while it publishes (parameter services answer) and reports on ``/diagnostics``.
 """
 
 from __future__ import annotations
@@ -15,13 +16,14 @@ from typing import Any
 import numpy as np
 import rclpy
 import yaml
+from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CameraInfo, Image
 
 from human_tracker.io.frames import FrameSourceError, open_frames
-from human_tracker.ros.common import declare
+from human_tracker.ros.common import RESULT_QOS, declare, node_status, publish_diagnostics
 from human_tracker.ros.image_conversion import array_to_image
 from human_tracker.ros.stage import run_nodes
 from human_tracker.vision.camera import default_camera_matrix
@@ -84,7 +86,7 @@ class VideoPublisher(Node):
             self,
             'wait_for_subscribers',
             0,
-            'Hold the first frame until image_raw and camera_info have this many subscribers (30 s at most).',
+            'Hold the first frame until image_raw has this many subscribers (30 s at most).',
             low=0,
             high=100,
             read_only=True,
@@ -110,22 +112,34 @@ class VideoPublisher(Node):
         self.info_pub = self.create_publisher(CameraInfo, 'camera_info', qos)
         self.published = 0
         self.unreadable = 0
+        self.state = 'STARTING'
+        self.diagnostics_pub = self.create_publisher(DiagnosticArray, '/diagnostics', RESULT_QOS)
+        self.create_timer(1.0, self._publish_diagnostics)
+
+    def _publish_diagnostics(self) -> None:
+        values = {'source': self.source_name, 'frames_published': self.published, 'frames_unreadable': self.unreadable}
+        publish_diagnostics(self, self.diagnostics_pub, [node_status(self, self.state, values)])
 
     def run(self) -> None:
         """Publish until the source ends (and ``loop`` is off) or rclpy shuts down."""
+        # camera_info is optional for the consumers (the cue nodes take none): images decide.
+        self.state = 'WAITING_FOR_SUBSCRIBERS'
         deadline = time.monotonic() + 30.0
-        while (
-            time.monotonic() < deadline
-            and min(p.get_subscription_count() for p in (self.image_pub, self.info_pub)) < self.wait_for
-        ):
+        while time.monotonic() < deadline and self.image_pub.get_subscription_count() < self.wait_for:
             time.sleep(0.05)
+        if self.image_pub.get_subscription_count() < self.wait_for:
+            self.get_logger().warn(
+                f'publishing although image_raw has {self.image_pub.get_subscription_count()} of '
+                f'{self.wait_for} subscribers after 30 s'
+            )
+        self.state = 'PUBLISHING'
         while rclpy.ok():
             try:
                 source = open_frames(self.source_name)
             except FrameSourceError as err:
                 raise ValueError(str(err)) from err
             period = 1.0 / (self.rate if self.rate > 0 else source.fps)
-            self.get_logger().info(f'ready: publishing {source.name} at {1 / period:.1f} Hz')
+            self.get_logger().info(f'publishing {source.name} at {1 / period:.1f} Hz')
             next_due = time.monotonic()
             try:
                 for image in source:
@@ -145,6 +159,7 @@ class VideoPublisher(Node):
             finally:
                 source.close()
             if not self.loop:
+                self.state = 'FINISHED'
                 return
 
     def publish(self, image: np.ndarray) -> None:

@@ -78,6 +78,10 @@ class TrackerParameters:
             (self.interior_weight > 1, f'interior_weight (w) must be > 1, got {self.interior_weight}'),
             (0 < self.colour_depth <= 1, f'colour_depth must be in (0, 1], got {self.colour_depth}'),
             (self.likelihood_gain > 0, f'likelihood_gain (K) must be > 0, got {self.likelihood_gain}'),
+            (
+                0 < self.min_scale <= self.max_scale,
+                f'need 0 < min_scale <= max_scale, got {self.min_scale}, {self.max_scale}',
+            ),
             (0.0 <= self.velocity_damping <= 1.0, f'velocity_damping must be in [0, 1], got {self.velocity_damping}'),
             (
                 len(self.process_noise) == 4 and min(self.process_noise) >= 0,
@@ -149,6 +153,14 @@ def state_from_box(box: tuple[float, float, float, float], template: ContourTemp
     cx = bx + bw / 2 - scale * (rx + rw / 2)
     cy = by + bh / 2 - scale * (ry + rh / 2)
     return np.array([cx, cy, scale, 0.0])
+
+
+def check_box_in_image(box: tuple[float, float, float, float], shape: tuple[int, ...]) -> None:
+    """Raise ValueError unless the centre of ``box`` = (x, y, w, h) lies in an image of ``shape`` (H, W, ...)."""
+    x, y, w, h = (float(v) for v in box)
+    height, width = shape[:2]
+    if not (0 <= x + w / 2 < width and 0 <= y + h / 2 < height):
+        raise ValueError(f'the box {x:g},{y:g},{w:g},{h:g} lies outside the {width}x{height} image')
 
 
 def box_from_state(state: np.ndarray, template: ContourTemplate) -> tuple[float, float, float, float]:

@@ -297,13 +297,15 @@ def run_nodes(
     rclpy.init(args=args)
     nodes: list[Node] = []
     executor = SingleThreadedExecutor()
+    spinner: threading.Thread | None = None
     code = 0
     try:
         nodes = build()
         for node in nodes:
             executor.add_node(node)
         if run is not None:
-            threading.Thread(target=executor.spin, daemon=True).start()
+            spinner = threading.Thread(target=executor.spin)
+            spinner.start()
             run(nodes)
         else:
             executor.spin()
@@ -318,6 +320,10 @@ def run_nodes(
         # Ctrl-C while the nodes were still being built: rclpy's signal handler shut the
         # context down under them, and their next call failed. That is a clean stop.
     finally:
+        if spinner is not None:
+            # The spinning thread must end before its nodes and the context go away.
+            executor.shutdown(timeout_sec=5.0)
+            spinner.join(timeout=5.0)
         # The order of rclpy.spin: detach the nodes from the executor before destroying them.
         for node in nodes:
             executor.remove_node(node)

@@ -38,6 +38,12 @@ class CameraSubscriber(ImageStage):
         self.skin_stage = skin_stage
         self.tracker = tracker
 
+    def warm_up(self) -> None:
+        """Every stage warms up before this subscriber (the pipeline's input) says it is ready."""
+        for stage in (self.motion_stage, self.skin_stage, self.tracker):
+            if stage is not None:
+                stage.warm_up()
+
     def handle_frame(self, image: np.ndarray, header: Any, **cues: Any) -> object:
         mask = None if self.motion_stage is None else self.motion_stage.process_frame(image, header)
         skin = None if self.skin_stage is None else self.skin_stage.process_frame(image, header)

@@ -224,7 +224,7 @@ class TrackerNode(ImageStage):
             self.create_timer(0.02, self._drain, clock=self.steady_clock)
         self.start_problem: str | None = None
         if subscribe_image:
-            self.check_start(motion=bool(self.motion_input != 'none'), skin=skin_input)
+            self.check_start(motion=self.motion_input != 'none', skin=skin_input)
         self.get_logger().info(
             f'configured: tracking {target} with {filter_parameters.num_particles} particles, '
             f'{self.template.num_points} points, mask inputs: {", ".join(self.mask_topics) or "none"}'

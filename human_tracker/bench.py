@@ -224,7 +224,9 @@ def _accuracy(sequences: list[Path], contrib_python: Path | None) -> list[dict[s
 
     rows = []
     for path in sequences:
-        for row in compare_on_sequence(path, contrib_python):
+        real = path.parent.name == 'real'
+        target = 'hand' if real and 'hand' in path.name else None
+        for row in compare_on_sequence(path, contrib_python, target, without_box=real):
             rows.append({'sequence': path.name, **row})
             print(json.dumps(rows[-1]))
     return rows
@@ -321,9 +323,11 @@ def main(argv: list[str] | None = None) -> int:
         ]
     if 'accuracy' in sections:
         sequences = sorted(p for p in Path('bags').iterdir() if p.is_dir())
-        sequences += [options.real_data / name for name in ('david', 'crossing') if (options.real_data / name).exists()]
+        if options.real_data.is_dir():
+            sequences += sorted(p.parent for p in options.real_data.glob('*/groundtruth.txt'))
         results['accuracy'] = _accuracy(sequences, contrib)
-        columns = ['sequence', 'tracker', 'precision_20px', 'success_auc', 'mean_centre_error_px', 'ms_per_frame']
+        columns = ['sequence', 'tracker', 'precision_20px', 'success_auc', 'mean_centre_error_px', 'confident_wrong']
+        columns += ['ms_per_frame']
         columns += ['runs', 'precision_20px_mean', 'precision_20px_min', 'precision_20px_max']
         report += [
             '## accuracy (same frames, same first box; figures of the first run, precision over all runs)\n',

@@ -147,11 +147,21 @@ def run_demo(bag: Path, out: Path, *, domain_id: int | None = None, rate: float 
                 box = box_from_state(state, template)
                 p = pose.pose.pose.position
                 metric = [round(v, 4) for v in (p.x, p.y, p.z)]
+                supports = [''] * (len(POSE_COLUMNS) - 12)
                 table.writerow(
-                    [frame.index, frame.stamp_ns, *np.round(state, 4), '', 'TRACKING', *np.round(box, 2), *metric]
+                    [
+                        frame.index,
+                        frame.stamp_ns,
+                        *np.round(state, 4),
+                        '',
+                        'TRACKING',
+                        *np.round(box, 2),
+                        *supports,
+                        *metric,
+                    ]
                 )
             else:
-                table.writerow([frame.index, frame.stamp_ns, '', '', '', '', '', 'NO_POSE', '', '', '', '', '', '', ''])
+                table.writerow([frame.index, frame.stamp_ns, *[''] * 5, 'NO_POSE', *[''] * (len(POSE_COLUMNS) - 3)])
             predicted.append(box)
             image = annotate(
                 message_to_bgr8(frame.message),

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import cv2
 import numpy as np
 
@@ -11,6 +13,7 @@ _CONTOUR = (0, 255, 0)
 _BOX = (0, 200, 255)
 _TRUTH = (255, 0, 255)
 _PARTICLE = (255, 200, 0)
+_DETECTION = (0, 255, 255)
 
 
 def _rect(image: np.ndarray, box: tuple[float, float, float, float], colour: tuple[int, int, int]) -> None:
@@ -28,6 +31,7 @@ def annotate(
     label: str = '',
     closed: bool = False,
     motion: np.ndarray | None = None,
+    detections: Sequence[tuple[float, float, float, float]] = (),
 ) -> np.ndarray:
     """Return a copy of ``image`` (BGR) with the tracker's output drawn on it.
 
@@ -40,6 +44,7 @@ def annotate(
         label: Text written in the top-left corner.
         closed: Draw the contour as a closed curve.
         motion: Motion cue (foreground or moving pixels) at any size, tinted red.
+        detections: Detector boxes (x, y, w, h), pixels (yellow).
     """
     out = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR) if image.ndim == 2 else image.copy()
     if motion is not None:
@@ -50,6 +55,8 @@ def annotate(
     if particles is not None:
         for x, y in np.round(particles[:, :2]).astype(np.int32):
             cv2.circle(out, (int(x), int(y)), 1, _PARTICLE, -1)
+    for detection in detections:
+        _rect(out, detection, _DETECTION)
     if truth is not None:
         _rect(out, truth, _TRUTH)
     if box is not None:

@@ -48,6 +48,9 @@ POSE_COLUMNS = (
     'box_y',
     'box_w',
     'box_h',
+    'motion_support',
+    'skin_support',
+    'appearance_distance',
 )
 
 
@@ -127,7 +130,7 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
                 rejected[frame.rejected] = rejected.get(frame.rejected, 0) + 1
                 predicted.append(None)
                 truth.append(frame.ground_truth)
-                table.writerow([frame.index, frame.stamp_ns, '', '', '', '', '', 'REJECTED', '', '', '', ''])
+                table.writerow([frame.index, frame.stamp_ns, *[''] * 5, 'REJECTED', *[''] * 7])
                 continue
             start = time.perf_counter()
             gray = to_mono8(frame.image)
@@ -158,12 +161,17 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
             predicted.append(box)
             truth.append(frame.ground_truth)
             if estimate is None:
-                table.writerow([frame.index, frame.stamp_ns, '', '', '', '', '', result.status, '', '', '', ''])
+                table.writerow([frame.index, frame.stamp_ns, *[''] * 5, result.status, *[''] * 7])
             else:
                 x, y, s, theta = (round(float(v), 4) for v in estimate.state)
                 shown = [round(v, 2) for v in estimate.box] if result.tracking else ['', '', '', '']
+                support = (estimate.motion_support, estimate.skin_support, estimate.appearance_distance)
                 table.writerow(
-                    [frame.index, frame.stamp_ns, x, y, s, theta, round(estimate.confidence, 4), result.status, *shown]
+                    [
+                        *(frame.index, frame.stamp_ns, x, y, s, theta, round(estimate.confidence, 4), result.status),
+                        *shown,
+                        *(round(v, 4) for v in support),
+                    ]
                 )
             if options.video and frame.index % options.video_every == 0:
                 label = f'{sequence.name} {frame.index} {result.status}'
@@ -173,6 +181,7 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
                     box=box,
                     truth=frame.ground_truth,
                     label=label,
+                    detections=result.detections,
                 )
                 if writer is None:
                     height, width = image.shape[:2]

@@ -65,10 +65,16 @@ def _row(tracker: str, runs: list[tuple[list[Box | None], float]], scored: list[
     }
 
 
-def compare_on_sequence(path: str | Path, contrib_python: Path | None) -> list[dict[str, object]]:
-    """Rows (tracker, first run's precision at 20 px, success AUC, mean error, ms per frame; precision over runs)."""
+def compare_on_sequence(
+    path: str | Path, contrib_python: Path | None, target: str | None = None, without_box: bool = False
+) -> list[dict[str, object]]:
+    """Rows (tracker, first run's precision at 20 px, success AUC, mean error, ms per frame; precision over runs).
+
+    ``target`` overrides what the sequence says it outlines (a folder of frames says
+    nothing: head); ``without_box`` adds our tracker started by itself (no first box).
+    """
     sequence = open_sequence(path)
-    target = sequence.target or 'head'
+    target = target or sequence.target or 'head'
     frames = list(sequence)
     unreadable = [f.index for f in frames if f.image is None]
     if unreadable:
@@ -84,19 +90,20 @@ def compare_on_sequence(path: str | Path, contrib_python: Path | None) -> list[d
         for index, frame in enumerate(frames[first:]):
             cv2.imwrite(str(folder / f'{index:06d}.png'), frame.image)
         # Ours on exactly those frames (a folder without ground truth: scored here).
-        ours = []
-        for seed in SEEDS:
-            options = TrackOptions(
-                target=target,
-                init=init,
-                filter_parameters=TrackerParameters(seed=seed),
-                progress=False,
-                video=False,
-            )
-            summary = track_sequence(folder, Path(scratch) / 'ours', options)
-            ours.append((read_poses(Path(scratch) / 'ours' / 'poses.csv'), float(summary['ms_per_frame'])))
-        cues = 'background + skin' if summary['skin'] else 'background cue'
-        rows.append(_row(f'ours ({cues})', ours, scored))
+        for start in (init, None) if without_box else (init,):
+            ours = []
+            for seed in SEEDS:
+                options = TrackOptions(
+                    target=target,
+                    init=start,
+                    filter_parameters=TrackerParameters(seed=seed),
+                    progress=False,
+                    video=False,
+                )
+                summary = track_sequence(folder, Path(scratch) / 'ours', options)
+                ours.append((read_poses(Path(scratch) / 'ours' / 'poses.csv'), float(summary['ms_per_frame'])))
+            cues = 'background + skin' if summary['skin'] else 'background cue'
+            rows.append(_row(f'ours ({cues}{"" if start else ", no box"})', ours, scored))
         for name in MAIN_WHEEL_BASELINES:
             runs = [
                 run_baseline(name, (f.image for f in frames[first:]), init)

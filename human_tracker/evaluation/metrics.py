@@ -70,11 +70,23 @@ def success_auc(ious: np.ndarray) -> float:
     return float(np.mean(success_curve(ious)[1]))
 
 
+def confident_wrong_share(predicted: Sequence[Box | None], truth: Sequence[Box | None]) -> float:
+    """Share of the annotated frames where a box is reported (the tracker says TRACKING) but its
+    centre is more than twice the true box's width from the true centre: a robot told where a
+    person is, wrongly."""
+    errors = centre_errors(predicted, truth)
+    widths = np.array([t[2] for t in truth if t is not None and t[2] > 0 and t[3] > 0], dtype=np.float64)
+    if widths.size == 0:
+        return 0.0
+    return float(np.mean(np.isfinite(errors) & (errors > 2.0 * widths)))
+
+
 def summarise(predicted: Sequence[Box | None], truth: Sequence[Box | None]) -> dict[str, float]:
-    """Precision at 20 px, success AUC, mean centre error and the annotated frame count."""
+    """Precision at 20 px, success AUC, mean centre error, confident-wrong share and the annotated frame count."""
     errors = centre_errors(predicted, truth)
     finite = errors[np.isfinite(errors)]
     return {
+        'confident_wrong': round(confident_wrong_share(predicted, truth), 4),
         'annotated_frames': int(errors.size),
         'precision_20px': precision_at(errors, 20.0),
         'success_auc': success_auc(overlaps(predicted, truth)),

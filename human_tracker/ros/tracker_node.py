@@ -53,12 +53,27 @@ FILTER_PARAMETERS = (
         'interior_weight', 'w (§3.2, > 1): non-skin inside the contour costs 1/w of skin outside.', 1.0001, 1e6
     ),
     ParameterSpec('colour_depth', 'How far inside / outside the contour skin is sampled, template units.', 0.001, 1.0),
+    ParameterSpec('appearance_gain', 'λ of the appearance term exp(-λ D²) of the fused likelihood.', 0.0, 1e4),
+    ParameterSpec('importance_share', 'Share of particles drawn around detections with the f/g correction.', 0.0, 1.0),
+    ParameterSpec('restart_share', 'Share of particles drawn around detections without correction.', 0.0, 1.0),
+    ParameterSpec('proposal_spread', 'Std of particles drawn around a detection: x, y (px), s (fraction), θ (rad).'),
     ParameterSpec('min_scale', 'Smallest scale s: reference region width in pixels.', 1.0, 1e5),
     ParameterSpec('max_scale', 'Largest scale s: reference region width in pixels.', 1.0, 1e5),
     ParameterSpec('seed', 'Seed of the particle filter (replays are reproducible).', 0, 2**31 - 1, runtime=False),
 )
 
 TARGET_PARAMETERS = (
+    ParameterSpec('likelihood', 'fused (shape of eqs. 1-4 times colour appearance) or paper (shape only).'),
+    ParameterSpec('appearance_parts', 'Horizontal bands of the target region with their own histogram.', 1, 16),
+    ParameterSpec('adaptation_rate', 'How fast the appearance reference follows a confident track.', 0.0, 1.0),
+    ParameterSpec(
+        'lost_appearance_distance',
+        'Bhattacharyya distance from the reference above which a frame is weak.',
+        0.0,
+        1.0,
+    ),
+    ParameterSpec('proposals', 'faces (face detections draw particles, start and restart; needs dlib) or off.'),
+    ParameterSpec('detect_every', 'Run the face detector on every this many frames.', 1, 100000),
     ParameterSpec(
         'motion_mode',
         'How motion enters the likelihood: off (eqs. 1-2), weighted (eqs. 3-4) or mask (moving edges only).',
@@ -140,6 +155,8 @@ class TrackerNode(ImageStage):
         filter_parameters = self.bind_parameters(TrackerParameters(), FILTER_PARAMETERS, self._apply_filter)
         target_parameters = self.bind_parameters(parameters_for(target), TARGET_PARAMETERS, self._apply_target)
         self.tracker = TargetTracker(self.template, filter_parameters, target_parameters)
+        if self.tracker.proposals_problem is not None:
+            self.get_logger().warn(self.tracker.proposals_problem)
         box = [
             float(v)
             for v in declare(
@@ -376,7 +393,7 @@ class TrackerNode(ImageStage):
                 result.status
                 if estimate is None
                 else f'{result.status} conf {estimate.confidence:.2f} motion {estimate.motion_support:.2f}'
-                f' skin {estimate.skin_support:.2f}'
+                f' skin {estimate.skin_support:.2f} appearance {estimate.appearance_distance:.2f}'
             )
             debug = annotate(
                 image,
@@ -385,6 +402,7 @@ class TrackerNode(ImageStage):
                 particles=self.tracker.particles,
                 label=label,
                 motion=motion if motion is not None else skin,
+                detections=result.detections,
             )
             self.debug_pub.publish(array_to_image(debug, 'bgr8', header))
         return result
@@ -442,6 +460,7 @@ class TrackerNode(ImageStage):
             extra['confidence'] = f'{result.estimate.confidence:.3f}'
             extra['motion_support'] = f'{result.estimate.motion_support:.3f}'
             extra['skin_support'] = f'{result.estimate.skin_support:.3f}'
+            extra['appearance_distance'] = f'{result.estimate.appearance_distance:.3f}'
             extra['effective_sample_size'] = f'{result.estimate.effective_sample_size:.1f}'
         return self.tracker.status, extra
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -21,6 +22,7 @@ from human_tracker.vision.particle_filter import (
     weighted_covariance,
     weighted_estimate,
 )
+from human_tracker.vision.proposals import draw_with_proposals
 from human_tracker.vision.templates import ContourTemplate, transform_points
 
 __all__ = ['TrackerParameters', 'TrackEstimate', 'ContourTracker', 'state_from_box', 'box_from_state']
@@ -44,10 +46,18 @@ class TrackerParameters:
             inside the contour costs than a skin pixel outside.
         colour_depth: How far inside and outside the contour the skin labels are sampled,
             template units (a fraction of the reference region's width).
+        appearance_gain: λ of the appearance term exp(-λ D²)
+            (:mod:`~human_tracker.vision.appearance`), used when the tracker is given one.
         min_scale: Smallest scale s (pixels per template unit: the reference region's width).
             A contour not much larger than its search band δ fits any edge blob, so the
             default is 2δ.
         max_scale: Largest scale s, pixels per template unit.
+        importance_share: Share of the particles drawn around detections with the
+            importance correction f / g when there are detections (ICONDENSATION,
+            :mod:`~human_tracker.vision.proposals`).
+        restart_share: Share drawn around detections without correction.
+        proposal_spread: Standard deviations of the particles drawn around a detection,
+            same units as process_noise.
         seed: Seed of the filter's random generator (a replay is then reproducible).
     """
 
@@ -58,11 +68,15 @@ class TrackerParameters:
     orientation_tolerance: float = 0.5
     interior_weight: float = 2.0
     colour_depth: float = 0.1
+    appearance_gain: float = 40.0
     velocity_damping: float = 0.6
     process_noise: tuple[float, float, float, float] = (5.0, 5.0, 0.01, 0.02)
     initial_spread: tuple[float, float, float, float] = (8.0, 8.0, 0.08, 0.08)
     min_scale: float = 24.0
     max_scale: float = 2000.0
+    importance_share: float = 0.2
+    restart_share: float = 0.05
+    proposal_spread: tuple[float, float, float, float] = (6.0, 6.0, 0.08, 0.05)
     seed: int = 0
 
     def validate(self) -> None:
@@ -78,6 +92,7 @@ class TrackerParameters:
             (self.interior_weight > 1, f'interior_weight (w) must be > 1, got {self.interior_weight}'),
             (0 < self.colour_depth <= 1, f'colour_depth must be in (0, 1], got {self.colour_depth}'),
             (self.likelihood_gain > 0, f'likelihood_gain (K) must be > 0, got {self.likelihood_gain}'),
+            (self.appearance_gain >= 0, f'appearance_gain (λ) must be >= 0, got {self.appearance_gain}'),
             (
                 0 < self.min_scale <= self.max_scale,
                 f'need 0 < min_scale <= max_scale, got {self.min_scale}, {self.max_scale}',
@@ -90,6 +105,15 @@ class TrackerParameters:
             (
                 len(self.initial_spread) == 4 and min(self.initial_spread) >= 0,
                 f'initial_spread must be 4 values >= 0, got {self.initial_spread}',
+            ),
+            (
+                len(self.proposal_spread) == 4 and min(self.proposal_spread) > 0,
+                f'proposal_spread must be 4 values > 0, got {self.proposal_spread}',
+            ),
+            (
+                min(self.importance_share, self.restart_share) >= 0 and self.importance_share + self.restart_share <= 1,
+                f'importance_share and restart_share must be >= 0 with a sum <= 1, got '
+                f'{self.importance_share}, {self.restart_share}',
             ),
         ]
         for ok, message in checks:
@@ -106,6 +130,7 @@ class TrackerParameters:
             return self
         x, y, s, theta = self.process_noise
         sx, sy, ss, stheta = self.initial_spread
+        px, py, ps, ptheta = self.proposal_spread
         return replace(
             self,
             search_halfwidth=self.search_halfwidth * factor,
@@ -113,6 +138,7 @@ class TrackerParameters:
             likelihood_gain=self.likelihood_gain / factor**2,
             process_noise=(x * factor, y * factor, s, theta),
             initial_spread=(sx * factor, sy * factor, ss, stheta),
+            proposal_spread=(px * factor, py * factor, ps, ptheta),
             min_scale=self.min_scale * factor,
             max_scale=self.max_scale * factor,
         )
@@ -131,6 +157,8 @@ class TrackEstimate:
         box: ``(x, y, w, h)`` pixels, bounding box of the template's reference region.
         contour: ``(N, 2)`` image points of the template at ``state``.
         skin_support: Weighted share of the contour's interior samples on skin (0 without skin).
+        appearance_distance: Bhattacharyya distance D of the target's region from its
+            reference, sqrt of the weighted mean D² (0 without an appearance model).
     """
 
     state: np.ndarray
@@ -141,6 +169,11 @@ class TrackEstimate:
     box: tuple[float, float, float, float]
     contour: np.ndarray
     skin_support: float = 0.0
+    appearance_distance: float = 0.0
+
+
+# An appearance term: the squared Bhattacharyya distance D² of each state ``(P, 4)``, ``(P,)``.
+Appearance = Callable[[np.ndarray], np.ndarray]
 
 
 def state_from_box(box: tuple[float, float, float, float], template: ContourTemplate) -> np.ndarray:
@@ -217,14 +250,23 @@ class ContourTracker:
         self.rng = np.random.default_rng(self.parameters.seed)
 
     def step(
-        self, edges: np.ndarray, motion: np.ndarray | None = None, skin: np.ndarray | None = None
+        self,
+        edges: np.ndarray,
+        motion: np.ndarray | None = None,
+        skin: np.ndarray | None = None,
+        appearance: Appearance | None = None,
+        detections: np.ndarray | None = None,
     ) -> TrackEstimate:
-        """Predict, weigh against ``edges`` (and ``motion``, ``skin``), estimate, resample.
+        """Predict, weigh against ``edges`` (and ``motion``, ``skin``, ``appearance``), estimate, resample.
 
         Args:
             edges: ``(H, W) uint8`` edge map (non-zero on edges).
             motion: Optional ``(H, W) uint8`` motion mask for eqs. 3-4.
             skin: Optional ``(H, W) uint8`` skin labels for the colour term of §3.2.
+            appearance: Optional D² of each state; its term exp(-λ D²) multiplies the
+                shape likelihood.
+            detections: Optional ``(D, 4)`` states of detections: shares of the particles
+                are drawn around them (ICONDENSATION).
 
         Returns:
             The estimate for this frame.
@@ -237,12 +279,29 @@ class ContourTracker:
         params = self.parameters
         if self.particles.shape[0] != params.num_particles:
             self._resize(params.num_particles)
+        current, past = self.particles, self.previous
         self.particles, self.previous = predict(
-            self.particles, self.previous, params.velocity_damping, np.asarray(params.process_noise), self.rng
+            current, past, params.velocity_damping, np.asarray(params.process_noise), self.rng
         )
+        correction = None
+        if detections is not None and len(detections):
+            self.particles, self.previous, correction = draw_with_proposals(
+                current,
+                past,
+                self.particles,
+                np.asarray(detections, dtype=np.float64),
+                velocity_damping=params.velocity_damping,
+                process_noise=np.asarray(params.process_noise),
+                spread=np.asarray(params.proposal_spread),
+                importance_share=params.importance_share,
+                restart_share=params.restart_share,
+                rng=self.rng,
+            )
         np.clip(self.particles[:, 2], params.min_scale, params.max_scale, out=self.particles[:, 2])
         fit = self.fit(edges, self.particles, motion, skin)
-        weights = normalised_weights(log_likelihood(fit.costs, params.likelihood_gain))
+        distances = None if appearance is None else appearance(self.particles)
+        log_weights = self.log_weights(fit, distances)
+        weights = normalised_weights(log_weights if correction is None else log_weights + correction)
         state = weighted_estimate(self.particles, weights)
         estimate = TrackEstimate(
             state=state,
@@ -250,6 +309,7 @@ class ContourTracker:
             confidence=float(weights @ fit.matched) / self.template.num_points,
             motion_support=float(weights @ fit.moving) / self.template.num_points,
             skin_support=0.0 if fit.skin is None else float(weights @ fit.skin),
+            appearance_distance=0.0 if distances is None else float(np.sqrt(weights @ distances)),
             effective_sample_size=effective_sample_size(weights),
             box=box_from_state(state, self.template),
             contour=transform_points(self.template.points, state),
@@ -258,6 +318,13 @@ class ContourTracker:
         self.particles = self.particles[keep]
         self.previous = self.previous[keep]
         return estimate
+
+    def log_weights(self, fit: ContourFit, appearance_distances: np.ndarray | None = None) -> np.ndarray:
+        """Unnormalised log weights: -K Σ φ (eq. 1), minus λ D² with an appearance term."""
+        log = log_likelihood(fit.costs, self.parameters.likelihood_gain)
+        if appearance_distances is not None:
+            log = log - self.parameters.appearance_gain * appearance_distances
+        return log
 
     def fit(
         self,

@@ -1,0 +1,115 @@
+"""Detector proposals: ICONDENSATION (Isard & Blake, ECCV 1998), as the paper's authors used it
+with face detections (Brèthes, Lerasle, Danès, Fontmarty, MVA 2010).
+
+When there are detections, the P particles of a frame come from three sources:
+
+- ``1 - importance_share - restart_share`` of them from the dynamics of §2.2 (the prior
+  ``f(x) = Σ_j w_j p(x | x_j)``), with no correction;
+- ``importance_share`` from the importance function ``g(x)``, an equal mixture of Gaussians
+  around the detections' states, each weighted by the correction ``f(x) / g(x)`` so that the
+  filter still estimates the same posterior;
+- ``restart_share`` from ``g`` with no correction: the re-initialisation component, which lets
+  a detection pull a filter back from clutter its prior no longer reaches.
+
+The corrections enter the log weights beside the likelihood. Particles drawn from ``g`` have
+no past: their previous state is their current one (zero velocity in the AR(2) model).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.special import logsumexp
+
+__all__ = ['log_prior_density', 'log_proposal_density', 'draw_with_proposals']
+
+
+def _log_gaussians(states: np.ndarray, means: np.ndarray, stds: np.ndarray) -> np.ndarray:
+    """``(R, M)`` log N(states_r; means_m, diag(stds_m²)) of ``(R, 4)`` states, ``(M, 4)`` means and stds."""
+    z = (states[:, None, :] - means[None, :, :]) / stds[None, :, :]
+    return -0.5 * np.sum(z * z, axis=2) - np.sum(np.log(stds), axis=1)[None, :] - 2.0 * np.log(2.0 * np.pi)
+
+
+def _stds(states: np.ndarray, spread: np.ndarray) -> np.ndarray:
+    """Per-state standard deviations: x, y, θ as given, s as a fraction of the state's scale."""
+    stds = np.broadcast_to(np.asarray(spread, dtype=np.float64), states.shape).copy()
+    stds[:, 2] *= states[:, 2]
+    return np.maximum(stds, 1e-9)
+
+
+def log_prior_density(
+    states: np.ndarray,
+    current: np.ndarray,
+    previous: np.ndarray,
+    velocity_damping: float,
+    process_noise: np.ndarray,
+) -> np.ndarray:
+    """``(R,)`` log f(x) of the AR(2) prior from an equally weighted (resampled) particle set.
+
+    Args:
+        states: ``(R, 4)`` where to evaluate f.
+        current: ``(P, 4)`` particles x_{k-1}.
+        previous: ``(P, 4)`` the same particles at k-2.
+        velocity_damping: a of §2.2.
+        process_noise: ``(4,)`` W's standard deviations (s as a fraction of the scale).
+    """
+    means = current + velocity_damping * (current - previous)
+    return logsumexp(_log_gaussians(states, means, _stds(current, process_noise)), axis=1) - np.log(len(current))
+
+
+def log_proposal_density(states: np.ndarray, detections: np.ndarray, spread: np.ndarray) -> np.ndarray:
+    """``(R,)`` log g(x): an equal mixture of Gaussians of ``spread`` around ``detections`` ``(D, 4)``."""
+    return logsumexp(_log_gaussians(states, detections, _stds(detections, spread)), axis=1) - np.log(len(detections))
+
+
+def draw_with_proposals(
+    current: np.ndarray,
+    previous: np.ndarray,
+    predicted: np.ndarray,
+    detections: np.ndarray,
+    *,
+    velocity_damping: float,
+    process_noise: np.ndarray,
+    spread: np.ndarray,
+    importance_share: float,
+    restart_share: float,
+    rng: np.random.Generator,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Replace shares of the predicted particles with draws around the detections.
+
+    Args:
+        current: ``(P, 4)`` particles before prediction (x_{k-1}), equally weighted.
+        previous: ``(P, 4)`` the same at k-2.
+        predicted: ``(P, 4)`` their prediction through the dynamics (x_k).
+        detections: ``(D, 4)`` states of the detections, D >= 1.
+        velocity_damping, process_noise: The dynamics that made ``predicted``.
+        spread: ``(4,)`` standard deviations of g around a detection (s as a fraction).
+        importance_share: Share of particles drawn from g with the correction f / g.
+        restart_share: Share drawn from g without correction.
+        rng: Seeded generator.
+
+    Returns:
+        ``(particles, previous, log_correction)``: the new x_k ``(P, 4)``, their x_{k-1}, and
+        ``(P,)`` log correction terms to add to the log likelihood.
+    """
+    count = len(predicted)
+    importance = int(round(importance_share * count))
+    restart = int(round(restart_share * count))
+    drawn_count = min(count, importance + restart)
+    particles = predicted.copy()
+    past = current.copy()
+    correction = np.zeros(count)
+    if drawn_count == 0:
+        return particles, past, correction
+    which = rng.integers(0, len(detections), size=drawn_count)
+    centres = detections[which]
+    drawn = centres + rng.standard_normal((drawn_count, 4)) * _stds(centres, spread)
+    np.maximum(drawn[:, 2], 1e-3, out=drawn[:, 2])
+    # The last particles are replaced: after systematic resampling their order carries no meaning.
+    slots = np.arange(count - drawn_count, count)
+    particles[slots] = drawn
+    past[slots] = drawn
+    corrected = slots[:importance]
+    correction[corrected] = log_prior_density(
+        drawn[:importance], current, previous, velocity_damping, process_noise
+    ) - log_proposal_density(drawn[:importance], detections, spread)
+    return particles, past, correction

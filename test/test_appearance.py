@@ -1,0 +1,168 @@
+"""Appearance likelihood, ICONDENSATION proposals, box relations and face detections: hand-computed values."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from human_tracker.vision.appearance import (
+    HUE_BINS,
+    NUM_BINS,
+    SATURATION_BINS,
+    AppearanceModel,
+    bhattacharyya_distance,
+    colour_bins,
+    region_histograms,
+)
+from human_tracker.vision.boxes import BoxRelation
+from human_tracker.vision.faces import FaceDetector, face_detector_available
+from human_tracker.vision.proposals import draw_with_proposals, log_prior_density, log_proposal_density
+
+REAL = Path(__file__).resolve().parents[2] / 'shared' / 'data' / 'real'
+UNIT = BoxRelation((0.0, 0.0), (1.0, 1.0))  # the region is the box of side s centred on (x, y)
+
+
+def test_bhattacharyya_distance_by_hand() -> None:
+    p = np.zeros(NUM_BINS)
+    q = np.zeros(NUM_BINS)
+    p[[0, 1]] = 0.5
+    q[[0, 2]] = 0.5
+    # Σ sqrt(p q) = sqrt(0.25) = 0.5, so D = sqrt(1 - 0.5).
+    assert bhattacharyya_distance(p, q) == pytest.approx(np.sqrt(0.5))
+    assert bhattacharyya_distance(p, p) == pytest.approx(0.0, abs=1e-9)
+    r = np.zeros(NUM_BINS)
+    r[5] = 1.0
+    assert bhattacharyya_distance(p, r) == pytest.approx(1.0)
+
+
+def test_colour_bins_grey_and_coloured() -> None:
+    grey = np.array([[0, 255]], dtype=np.uint8)
+    assert colour_bins(grey).tolist() == [[HUE_BINS * SATURATION_BINS, NUM_BINS - 1]]
+    red = np.zeros((1, 1, 3), dtype=np.uint8)
+    red[..., 2] = 255  # BGR: hue 0, full saturation
+    assert colour_bins(red)[0, 0] == SATURATION_BINS - 1
+    dark_red = red // 8  # value below MIN_VALUE: its hue is noise, it goes to a grey bin
+    assert colour_bins(dark_red)[0, 0] >= HUE_BINS * SATURATION_BINS
+
+
+def _two_colour_image() -> np.ndarray:
+    """Left half red, right half blue, 200x200 BGR."""
+    image = np.zeros((200, 200, 3), dtype=np.uint8)
+    image[:, :100, 2] = 255
+    image[:, 100:, 0] = 255
+    return image
+
+
+def test_region_histograms_and_distance() -> None:
+    bins = colour_bins(_two_colour_image())
+    red_bin, blue_bin = bins[0, 0], bins[0, 199]
+    states = np.array([[50.0, 100.0, 40.0, 0.0], [150.0, 100.0, 40.0, 0.0], [100.0, 100.0, 40.0, 0.0]])
+    histograms = region_histograms(bins, states, UNIT, parts=2)
+    assert histograms.shape == (3, 2, NUM_BINS)
+    np.testing.assert_allclose(histograms.sum(axis=2), 1.0)
+    assert histograms[0, :, red_bin] == pytest.approx([1.0, 1.0])
+    assert histograms[1, :, blue_bin] == pytest.approx([1.0, 1.0])
+    # Straddling the border: half of each colour (symmetric grid and kernel).
+    assert histograms[2, 0, red_bin] == pytest.approx(0.5)
+    model = AppearanceModel.learn(bins, states[0], UNIT)
+    distances = model.squared_distances(bins, states)
+    assert distances[0] == pytest.approx(0.0, abs=1e-12)
+    assert distances[1] == pytest.approx(1.0)
+    # Half red: Σ sqrt(0.5 · 1) = sqrt(0.5), D² = 1 - sqrt(0.5).
+    assert distances[2] == pytest.approx(1.0 - np.sqrt(0.5))
+
+
+def test_adaptation_blends_the_reference() -> None:
+    bins = colour_bins(_two_colour_image())
+    red, blue = np.array([50.0, 100.0, 40.0, 0.0]), np.array([150.0, 100.0, 40.0, 0.0])
+    model = AppearanceModel.learn(bins, red, UNIT)
+    model.adapt(bins, blue, rate=0.25)
+    np.testing.assert_allclose(model.reference.sum(axis=1), 1.0)
+    assert model.reference[0, bins[0, 0]] == pytest.approx(0.75)
+    assert model.reference[0, bins[0, 199]] == pytest.approx(0.25)
+
+
+def test_box_relation_round_trip() -> None:
+    state = np.array([100.0, 80.0, 50.0, 0.3])
+    box = (90.0, 70.0, 30.0, 36.0)
+    relation = BoxRelation.of(box, state)
+    np.testing.assert_allclose(relation.box(state), box)
+    # The same box on a contour twice as large and elsewhere: twice the size, same place on it.
+    moved = np.array([10.0, 20.0, 100.0, 0.3])
+    x, y, w, h = relation.box(moved)
+    assert (w, h) == pytest.approx((60.0, 72.0))
+    np.testing.assert_allclose(relation.state(relation.box(state), angle=0.3), state)
+
+
+def test_prior_density_by_hand() -> None:
+    # One particle at rest at (0, 0, s=10, 0); noise std (1, 2, 0.1 of s = 1, 0.5).
+    current = np.array([[0.0, 0.0, 10.0, 0.0]])
+    noise = np.array([1.0, 2.0, 0.1, 0.5])
+    x = np.array([[1.0, 2.0, 10.0, 0.0]])
+    # log N = -0.5 (1 + 1 + 0 + 0) - log(1 · 2 · 1 · 0.5) - 2 log 2π
+    expected = -1.0 - np.log(1.0) - 2.0 * np.log(2.0 * np.pi)
+    assert log_prior_density(x, current, current, 0.6, noise)[0] == pytest.approx(expected)
+    # With a velocity: x_{k-1} - x_{k-2} = (2, 0) carries over by a = 0.5, mean (1, 0).
+    moving = log_prior_density(np.array([[1.0, 0.0, 10.0, 0.0]]), current, current - [2.0, 0, 0, 0], 0.5, noise)
+    assert moving[0] == pytest.approx(-np.log(1.0) - 2.0 * np.log(2.0 * np.pi))
+
+
+def test_proposal_density_is_an_equal_mixture() -> None:
+    detections = np.array([[0.0, 0.0, 10.0, 0.0], [100.0, 0.0, 10.0, 0.0]])
+    spread = np.array([1.0, 1.0, 0.1, 1.0])
+    at_first = log_proposal_density(detections[:1], detections, spread)[0]
+    # The far component adds nothing; the mixture halves the density of one Gaussian.
+    assert at_first == pytest.approx(np.log(0.5) - 2.0 * np.log(2.0 * np.pi))
+
+
+def test_importance_correction_and_shares() -> None:
+    rng = np.random.default_rng(0)
+    current = np.tile([50.0, 50.0, 20.0, 0.0], (100, 1))
+    predicted = current + rng.standard_normal(current.shape) * [1.0, 1.0, 0.0, 0.0]
+    detections = np.array([[52.0, 50.0, 20.0, 0.0]])
+    noise = np.array([2.0, 2.0, 0.05, 0.02])
+    spread = np.array([3.0, 3.0, 0.05, 0.05])
+    particles, past, correction = draw_with_proposals(
+        current,
+        current,
+        predicted,
+        detections,
+        velocity_damping=0.5,
+        process_noise=noise,
+        spread=spread,
+        importance_share=0.2,
+        restart_share=0.1,
+        rng=rng,
+    )
+    np.testing.assert_array_equal(particles[:70], predicted[:70])  # from the dynamics, no correction
+    assert np.all(correction[:70] == 0) and np.all(correction[90:] == 0)  # restart share: no correction
+    np.testing.assert_array_equal(past[70:], particles[70:])  # drawn particles have no velocity
+    drawn = particles[70:90]
+    expected = log_prior_density(drawn, current, current, 0.5, noise) - log_proposal_density(drawn, detections, spread)
+    np.testing.assert_allclose(correction[70:90], expected)
+    # Identical particles at rest: f is one Gaussian at (50, 50), g one at (52, 50); by hand
+    # log f - log g = -0.5 Σ z_f² + 0.5 Σ z_g² - Σ log σ_f + Σ log σ_g.
+    d = drawn[0]
+    z_f = (d - [50.0, 50.0, 20.0, 0.0]) / (noise * [1, 1, 20, 1])
+    z_g = (d - detections[0]) / (spread * [1, 1, 20, 1])
+    by_hand = (
+        -0.5 * z_f @ z_f + 0.5 * z_g @ z_g - np.log(noise * [1, 1, 20, 1]).sum() + np.log(spread * [1, 1, 20, 1]).sum()
+    )
+    assert correction[70] == pytest.approx(by_hand)
+
+
+@pytest.mark.skipif(not face_detector_available(), reason='dlib is not installed')
+@pytest.mark.skipif(not (REAL / 'interview_alberto').is_dir(), reason='real sequences absent')
+def test_face_detector_finds_the_face_on_a_real_frame() -> None:
+    frame = sorted((REAL / 'interview_alberto' / 'img').iterdir())[0]
+    image = cv2.imread(str(frame))
+    truth = [float(v) for v in (REAL / 'interview_alberto' / 'groundtruth.txt').read_text().split()[0].split(',')]
+    centre = np.array([truth[0] + truth[2] / 2, truth[1] + truth[3] / 2])
+    detector = FaceDetector()
+    for found in (detector.detect(image, upsample=0), detector.detect_near(image, tuple(truth))):
+        assert found, 'no face found'
+        x, y, w, h = found[0].box
+        assert np.hypot(x + w / 2 - centre[0], y + h / 2 - centre[1]) < 0.3 * truth[2]

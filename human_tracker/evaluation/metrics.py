@@ -70,11 +70,10 @@ def success_auc(ious: np.ndarray) -> float:
     return float(np.mean(success_curve(ious)[1]))
 
 
-def confident_wrong_share(predicted: Sequence[Box | None], truth: Sequence[Box | None]) -> float:
+def _confident_wrong_share(errors: np.ndarray, truth: Sequence[Box | None]) -> float:
     """Share of the annotated frames where a box is reported (the tracker says TRACKING) but its
     centre is more than twice the true box's width from the true centre: a robot told where a
-    person is, wrongly."""
-    errors = centre_errors(predicted, truth)
+    person is, wrongly. ``errors`` are :func:`centre_errors` of the same frames."""
     widths = np.array([t[2] for t in truth if t is not None and t[2] > 0 and t[3] > 0], dtype=np.float64)
     if widths.size == 0:
         return 0.0
@@ -86,7 +85,7 @@ def summarise(predicted: Sequence[Box | None], truth: Sequence[Box | None]) -> d
     errors = centre_errors(predicted, truth)
     finite = errors[np.isfinite(errors)]
     return {
-        'confident_wrong': round(confident_wrong_share(predicted, truth), 4),
+        'confident_wrong': round(_confident_wrong_share(errors, truth), 4),
         'annotated_frames': int(errors.size),
         'precision_20px': precision_at(errors, 20.0),
         'success_auc': success_auc(overlaps(predicted, truth)),

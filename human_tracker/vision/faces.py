@@ -81,7 +81,7 @@ class FaceDetector:
         return sorted(found, key=lambda d: -d.score)
 
     def detect_near(self, image: np.ndarray, box: tuple[float, float, float, float]) -> list[Detection]:
-        """Faces in a region twice the size of the face ``box`` (x, y, w, h) around it.
+        """Faces within twice the face ``box``'s size (x, y, w, h) of its centre.
 
         The region is resized so that a face of ``box``'s size is just detectable without
         upsampling: a few milliseconds instead of a whole frame's tens.

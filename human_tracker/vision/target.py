@@ -447,11 +447,12 @@ class TargetTracker:
         if set_aside:
             motion = None
         skin = self._at_working('skin labels', skin, image.shape[:2])
-        image = to_working(image, p.working_width)
-        image = _exposure_gain(image)
-        bins = colour_bins(image) if p.likelihood == 'fused' else None
+        bins = colour_bins(_exposure_gain(to_working(image, p.working_width))) if p.likelihood == 'fused' else None
+        # Grey before the reduction, as the cue stages do: a colour frame and its grey version
+        # then give the same edges.
         if image.ndim == 3 and not p.colour_edges:
             image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+        image = _exposure_gain(to_working(image, p.working_width))
         edges = edge_map(image, blur_sigma=p.edge_blur_sigma, low_threshold=p.canny_low, high_threshold=p.canny_high)
         likelihood_motion = likelihood_skin = None
         if motion is not None and p.motion_mode == 'mask':
@@ -525,7 +526,7 @@ class TargetTracker:
         return TargetResult(self.status, estimate, initialised, set_aside, shown)
 
     def _settle_on_start_box(
-        self, edges: np.ndarray, motion: np.ndarray | None, skin: np.ndarray | None, bins: np.ndarray | None
+        self, edges: np.ndarray, motion: np.ndarray | None, skin: np.ndarray | None, bins: np.ndarray
     ) -> None:
         """Start the filter where the contour best fits the silhouette around the start box.
 
@@ -533,8 +534,8 @@ class TargetTracker:
         lower than the head-and-shoulders outline around it): the contour is fitted on a grid
         of scales and offsets around the box (``START_SCALES``, ``START_OFFSETS``, in units of
         the box's own scale), the best fit (lowest Σ φ, eqs. 2-4) starts the filter, and the
-        box's place on that contour is kept for the boxes reported from then on and, with the
-        fused likelihood, as the region of the target's appearance.
+        box's place on that contour is kept for the boxes reported from then on and as the
+        region whose colours (``bins``) are the target's appearance.
         """
         assert self.start_box is not None
         fp = self.filter.parameters
@@ -554,9 +555,7 @@ class TargetTracker:
         best = grid[int(np.argmin(self.filter.fit(edges, grid, motion, skin).costs))]
         self.filter.initialise(best)
         self.box_relation = BoxRelation.of(box, best)
-        if bins is not None:
-            self.appearance = AppearanceModel.learn(bins, best, self.box_relation, self.parameters.appearance_parts)
-        self.start_box = None
+        self.appearance = AppearanceModel.learn(bins, best, self.box_relation, self.parameters.appearance_parts)
 
     def _detect(self, image: np.ndarray) -> list[Detection]:
         """Faces on this working frame (every ``detect_every`` frames): near the predicted face

@@ -232,7 +232,7 @@ def parameters_for(target: str) -> TargetParameters:
     hand starts from the moments (§2.5.1) of skin regions and fits colour edges: a hand is
     often as bright as what is behind it, but rarely the same colour. It keeps the paper's
     likelihood: on the real hand2 sequence the appearance term lost the hand sooner (precision
-    0.14 against 0.23, seeds 0-2), its palm histogram matching the skin-coloured wall.
+    0.17 against 0.23, seeds 0-2), its palm histogram matching the skin-coloured wall.
     """
     if target == 'hand':
         # No switching while a hand is tracked: it stops and starts waving, and a swaying

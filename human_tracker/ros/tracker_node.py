@@ -267,7 +267,7 @@ class TrackerNode(ImageStage):
         """Run the compiled kernels once, with this node's settings, so the first real frame is not late."""
         filter_parameters = TrackerParameters(num_particles=2, min_scale=1.0)
         probe = TargetTracker(self.template, filter_parameters, self.tracker.parameters)
-        probe.filter.initialise(np.array([16.0, 16.0, 8.0, 0.0]))
+        probe.initialise_from_box((8.0, 8.0, 16.0, 16.0))  # a box: the appearance kernels run too
         rng = np.random.default_rng(0)
         blank = np.zeros((32, 32), dtype=np.uint8)
         probe.process(rng.integers(0, 256, (32, 32, 3), dtype=np.uint8), blank, blank)

@@ -76,6 +76,13 @@ PROPOSALS = ('faces', 'off')
 START_SCALES = tuple(np.round(np.linspace(1.0, 1.8, 9), 2))
 START_OFFSETS = (tuple(np.round(np.linspace(-0.3, 0.3, 7), 2)), tuple(np.round(np.linspace(-0.6, 0.3, 10), 2)))
 
+# A detected face belongs to the tracked head when its centre is within this many face widths
+# of where the contour puts the face, and its size within a factor 1.5 of that face's.
+FACE_MATCH_DISTANCE = 0.75
+# Detector runs near the track in a row that found no face on it before one searches the
+# whole frame.
+SEARCH_AFTER_MISSES = 3
+
 WAITING = 'WAITING'
 TRACKING = 'TRACKING'
 LOST = 'LOST'
@@ -138,11 +145,11 @@ class TargetParameters:
             in the camera's pixels.
     """
 
-    likelihood: str = 'paper'
+    likelihood: str = 'fused'
     appearance_parts: int = 2
     adaptation_rate: float = 0.02
     lost_appearance_distance: float = 0.5
-    proposals: str = 'off'
+    proposals: str = 'faces'
     detect_every: int = 5
     motion_mode: str = 'weighted'
     max_motion_fraction: float = 0.5
@@ -312,6 +319,8 @@ class TargetTracker:
     scale: float = field(default=1.0, init=False)
     appearance: AppearanceModel | None = field(default=None, init=False)
     box_relation: BoxRelation | None = field(default=None, init=False)
+    face_relation: BoxRelation | None = field(default=None, init=False)
+    face_misses: int = field(default=0, init=False)
     start_box: tuple[float, float, float, float] | None = field(default=None, init=False)
     detector: FaceDetector | None = field(default=None, init=False)
     frames: int = field(default=0, init=False)
@@ -352,6 +361,7 @@ class TargetTracker:
         state = state_from_box(box, self.template)
         self.filter.initialise(state / self._to_camera_factors())
         self.box_relation = BoxRelation.of(box, state)  # until the contour settles on the next frame
+        self.face_relation = None
         self.start_box = tuple(float(v) for v in box)  # type: ignore[assignment]
         self.appearance = None
         self.status = TRACKING
@@ -369,6 +379,8 @@ class TargetTracker:
         self.weak_frames = 0
         self.appearance = None
         self.box_relation = None
+        self.face_relation = None
+        self.face_misses = 0
         self.start_box = None
         self.frames = 0
 
@@ -478,32 +490,42 @@ class TargetTracker:
             else None
         )
         initialised = False
-        if states is not None and (self.status != TRACKING or self.weak_frames > 0):
-            # A face where the filter has no (or a weak) target: start there. The appearance
-            # learnt before is kept if the face still looks like it (the light may have changed).
-            self.filter.initialise(states[0])
+        face = None if estimate is None or not detections else _face_on(detections, estimate.state)
+        restart = None if states is None else self._restart_on_face(states, face, estimate, appearance)
+        if restart is not None:
+            # A face where the filter has no (or a weak, or a faceless) target: start there. The
+            # appearance learnt before is kept if the face still looks like it (the light may
+            # have changed).
+            self.filter.initialise(states[restart])
             if bins is not None and (
-                appearance is None or np.sqrt(appearance(states[:1])[0]) > p.lost_appearance_distance
+                appearance is None
+                or np.sqrt(appearance(states[restart : restart + 1])[0]) > p.lost_appearance_distance
             ):
-                self.appearance = AppearanceModel.learn(bins, states[0], self._own_region(), p.appearance_parts)
+                self.appearance = AppearanceModel.learn(
+                    bins, states[restart], self._own_region(), p.appearance_parts
+                )
                 appearance = self._appearance_term(bins)
             estimate = self.filter.step(edges, likelihood_motion, likelihood_skin, appearance, states)
             self.status, self.weak_frames, initialised = TRACKING, 0, True
+            face = detections[restart]
+        if detections is not None and self.status == TRACKING:
+            self.face_misses = 0 if face is not None else self.face_misses + 1
         region = self.initial_region(motion, skin)
         found = None
         if region is not None and not initialised and self._may_switch(estimate):
             found = self.hypothesis(region, edges, motion, likelihood_skin, appearance)
         if found is not None and self._should_start(found, estimate):
+            # A new target's appearance is learnt once the filter has settled on it (below): X_0
+            # from a region is coarse, and colours learnt there would hold the background.
             self.filter.initialise(found.state)
-            if bins is not None and self.appearance is None:
-                self.appearance = AppearanceModel.learn(bins, found.state, self._own_region(), p.appearance_parts)
-                appearance = self._appearance_term(bins)
             estimate = self.filter.step(edges, likelihood_motion, likelihood_skin, appearance)
             self.status, self.weak_frames, initialised = TRACKING, 0, True
-        shown = tuple(tuple(v / self.scale for v in d.box) for d in detections)
+        shown = tuple(tuple(v / self.scale for v in d.box) for d in detections or ())
         if estimate is None:
             return TargetResult(self.status, None, motion_set_aside=set_aside, detections=shown)
         working_state = estimate.state
+        if face is not None and self.status == TRACKING:
+            self._anchor_on_face(face, working_state)
         estimate = self._to_camera(estimate)
         if self.box_relation is not None:
             estimate = replace(estimate, box=self.box_relation.box(estimate.state))
@@ -515,8 +537,13 @@ class TargetTracker:
         if likelihood_skin is not None and estimate.skin_support < p.lost_skin_support:
             weak = True
         self.weak_frames = self.weak_frames + 1 if weak else 0
-        if not weak and self.status == TRACKING and self.appearance is not None and bins is not None:
-            self.appearance.adapt(bins, working_state, p.adaptation_rate)
+        if not weak and self.status == TRACKING and bins is not None:
+            if self.appearance is not None:
+                self.appearance.adapt(bins, working_state, p.adaptation_rate)
+            elif (estimate.motion_support if motion is not None else estimate.confidence) + p.switch_margin >= 1.0:
+                # A target found in a region (X_0 is coarse) is learnt once the contour is on
+                # it: once no hypothesis could beat its support.
+                self.appearance = AppearanceModel.learn(bins, working_state, self._own_region(), p.appearance_parts)
         if self.weak_frames >= p.lost_frames:
             self.status = LOST
         elif self.weak_frames == 0 and self.status == LOST and region is None:
@@ -557,17 +584,63 @@ class TargetTracker:
         self.box_relation = BoxRelation.of(box, best)
         self.appearance = AppearanceModel.learn(bins, best, self.box_relation, self.parameters.appearance_parts)
 
-    def _detect(self, image: np.ndarray) -> list[Detection]:
-        """Faces on this working frame (every ``detect_every`` frames): near the predicted face
-        while tracking, anywhere otherwise."""
+    def _detect(self, image: np.ndarray) -> list[Detection] | None:
+        """Faces on this working frame, None when the detector does not run on it.
+
+        It runs every ``detect_every`` frames: near the predicted face while the target is
+        tracked, on the whole frame while it is not, or after ``SEARCH_AFTER_MISSES`` runs in
+        a row found no face on it (a contour on clutter finds no face near itself).
+        """
         self.frames += 1
         if self.detector is None or (self.frames - 1) % self.parameters.detect_every:
-            return []
+            return None
         grey = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-        if self.status == TRACKING and self.filter.particles is not None and self.weak_frames == 0:
+        tracked = self.status == TRACKING and self.filter.particles is not None and self.weak_frames == 0
+        if tracked and self.face_misses < SEARCH_AFTER_MISSES:
             predicted = self.filter.particles.mean(axis=0)
             return self.detector.detect_near(grey, FACE_ON_HEAD.box(predicted))
+        self.face_misses = 0
         return self.detector.detect(grey, upsample=1)
+
+    def _anchor_on_face(self, face: Detection, state: np.ndarray) -> None:
+        """Re-anchor the reported box on the face detected on the tracked head (working pixels).
+
+        The box a track reports is a region of the contour (``box_relation``); the contour of a
+        head and shoulders does not say where the face is within it as the head turns, and
+        its scale follows the hair and shoulders. A detected face does: the first face found
+        on the head records how the reported box sits on it (``face_relation``, in units of
+        the face's width), and each later one moves the reported box there and re-expresses
+        it on the contour, which carries it until the next detection.
+        """
+        x, y, w, h = face.box
+        face_state = np.array([x + w / 2, y + h / 2, w, 0.0])
+        if self.face_relation is None:
+            relation = self.box_relation or self._own_region()
+            self.face_relation = BoxRelation.of(relation.box(state), face_state)
+        else:
+            self.box_relation = BoxRelation.of(self.face_relation.box(face_state), state)
+
+    def _restart_on_face(
+        self,
+        states: np.ndarray,
+        face: Detection | None,
+        estimate: TrackEstimate | None,
+        appearance: Appearance | None,
+    ) -> int | None:
+        """Which detection (index into ``states``) restarts the filter, or None.
+
+        The best one when there is no target or the target is weak. While the target is
+        tracked without its face, a face that looks more like the target than the estimate
+        does (a contour that slid onto clutter, or shrank onto part of the head).
+        """
+        if self.status != TRACKING or self.weak_frames > 0 or estimate is None:
+            return 0
+        if face is not None or appearance is None:
+            return None
+        distances = np.sqrt(appearance(states))
+        k = int(np.argmin(distances))
+        limit = min(self.parameters.lost_appearance_distance, estimate.appearance_distance)
+        return k if distances[k] < limit else None
 
     def _own_region(self) -> BoxRelation:
         """The region whose colours are the target's after an automatic start: the template's
@@ -638,6 +711,21 @@ class TargetTracker:
             box=(x * inverse, y * inverse, w * inverse, h * inverse),
             contour=estimate.contour * inverse,
         )
+
+
+def _face_on(detections: list[Detection], state: np.ndarray) -> Detection | None:
+    """The first of ``detections`` that is the face of the head at ``state`` (working pixels):
+    within ``FACE_MATCH_DISTANCE`` face widths of where the contour puts the face, of about
+    its size (a factor 1.5)."""
+    x, y, size, height = FACE_ON_HEAD.box(state)
+    centre = np.array([x + size / 2, y + height / 2])
+    for detection in detections:
+        x, y, w, h = detection.box
+        if np.hypot(x + w / 2 - centre[0], y + h / 2 - centre[1]) <= FACE_MATCH_DISTANCE * size and (
+            1 / 1.5 <= w / size <= 1.5
+        ):
+            return detection
+    return None
 
 
 def _exposure_gain(image: np.ndarray, max_gain: float = 4.0) -> np.ndarray:

@@ -46,6 +46,7 @@ BACKGROUND_PARAMETERS = (
     ),
     ParameterSpec('opening_radius', 'Morphological opening radius, pixels (removes isolated detections).', 0, 50),
     ParameterSpec('closing_radius', 'Morphological closing radius, pixels (fills holes).', 0, 50),
+    ParameterSpec('compensate_camera', "Carry the reference frame with the camera's own image motion."),
 )
 
 

@@ -74,6 +74,7 @@ TARGET_PARAMETERS = (
     ),
     ParameterSpec('proposals', 'faces (face detections draw particles, start and restart; needs dlib) or off.'),
     ParameterSpec('detect_every', 'Run the face detector on every this many frames.', 1, 100000),
+    ParameterSpec('compensate_camera', "Carry the particles with the camera's own image motion before predicting."),
     ParameterSpec(
         'motion_mode',
         'How motion enters the likelihood: off (eqs. 1-2), weighted (eqs. 3-4) or mask (moving edges only).',

@@ -28,6 +28,7 @@ import cv2
 import numba
 import numpy as np
 
+from human_tracker.vision.camera_motion import estimate_camera_motion
 from human_tracker.vision.morphology import disk
 
 __all__ = ['BackgroundParameters', 'BackgroundModel', 'background_decision']
@@ -49,6 +50,11 @@ class BackgroundParameters:
         opening_radius: Radius (pixels) of the opening that removes isolated false
             detections; 0 disables it.
         closing_radius: Radius (pixels) of the closing that fills small holes; 0 disables it.
+        compensate_camera: Carry the reference frame with the camera's own image motion
+            (:mod:`~human_tracker.vision.camera_motion`, estimated between consecutive
+            frames, the last foreground left out) before each test, so that a turning or
+            swaying camera does not make the whole scene foreground. Pixels that come into
+            view start afresh. On a fixed camera the estimate is the identity.
     """
 
     learning_rate: float = 0.05
@@ -60,6 +66,7 @@ class BackgroundParameters:
     max_variance: float = 400.0
     opening_radius: int = 1
     closing_radius: int = 3
+    compensate_camera: bool = True
 
     def validate(self) -> None:
         """Raise ValueError naming the first parameter out of its range."""
@@ -150,6 +157,8 @@ class BackgroundModel:
     parameters: BackgroundParameters = field(default_factory=BackgroundParameters)
     mean: np.ndarray | None = None
     variance: np.ndarray | None = None
+    previous: np.ndarray | None = None
+    foreground: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         self.parameters.validate()
@@ -158,6 +167,8 @@ class BackgroundModel:
         """Forget the background; the next frame becomes the reference."""
         self.mean = None
         self.variance = None
+        self.previous = None
+        self.foreground = None
 
     def apply(self, gray: np.ndarray) -> np.ndarray:
         """Classify ``gray`` and update the model (step 3).
@@ -175,7 +186,11 @@ class BackgroundModel:
             # The first frame (or a new image size) is taken as background.
             self.mean = frame.astype(np.float32)
             self.variance = np.full(frame.shape, p.initial_variance, dtype=np.float32)
+            self.previous = frame if frame.dtype == np.uint8 else None
+            self.foreground = None
             return np.zeros(frame.shape, dtype=np.uint8)
+        if p.compensate_camera and frame.dtype == np.uint8 and self.previous is not None:
+            self._follow_camera(frame)
         mask = np.empty(frame.shape, dtype=np.uint8)
         _decide_and_update(
             frame,
@@ -192,7 +207,23 @@ class BackgroundModel:
             mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, disk(p.opening_radius))
         if p.closing_radius:
             mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, disk(p.closing_radius))
+        self.previous = frame if frame.dtype == np.uint8 else None
+        self.foreground = mask
         return mask
+
+    def _follow_camera(self, frame: np.ndarray) -> None:
+        """Carry the reference frame with the camera's motion from the previous frame to ``frame``."""
+        assert self.mean is not None and self.variance is not None and self.previous is not None
+        transform = estimate_camera_motion(self.previous, frame, self.foreground)
+        if transform is None:
+            return  # nothing to follow (a blank frame): keep the model as it is
+        if np.array_equal(transform, np.eye(2, 3)):
+            return
+        size = (frame.shape[1], frame.shape[0])
+        seen = cv2.warpAffine(np.ones(frame.shape, np.uint8), transform, size, flags=cv2.INTER_NEAREST) > 0
+        self.mean = np.where(seen, cv2.warpAffine(self.mean, transform, size), frame).astype(np.float32)
+        variance = cv2.warpAffine(self.variance, transform, size)
+        self.variance = np.where(seen, variance, self.parameters.initial_variance).astype(np.float32)
 
     def reference_frame(self) -> np.ndarray | None:
         """The dynamic reference frame m as ``uint8`` (the background estimate), or None."""

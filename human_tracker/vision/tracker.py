@@ -7,6 +7,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from human_tracker.vision.camera_motion import move_states
 from human_tracker.vision.dynamics import predict
 from human_tracker.vision.measurement import (
     ContourFit,
@@ -242,6 +243,15 @@ class ContourTracker:
     def initialise_from_box(self, box: tuple[float, float, float, float]) -> None:
         """Initialise on the reference region (head or hand) filling ``box`` (x, y, w, h)."""
         self.initialise(state_from_box(box, self.template))
+
+    def follow_camera(self, transform: np.ndarray) -> None:
+        """Carry the particles and their previous states with the camera's image motion
+        (``(2, 3)`` similarity, :mod:`~human_tracker.vision.camera_motion`) before the next
+        step, so that the AR(2) velocity is the target's own motion, not the camera's."""
+        if self.particles is None or self.previous is None:
+            return
+        self.particles = move_states(self.particles, transform)
+        self.previous = move_states(self.previous, transform)
 
     def reset(self) -> None:
         """Forget the target; the next ``initialise`` starts afresh with the same seed."""

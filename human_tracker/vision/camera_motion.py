@@ -1,0 +1,101 @@
+"""The camera's own image motion between two frames, and moving states and images with it.
+
+The paper's cues assume a fixed camera, or (§2.4.2) a known rotation. A robot's head turns
+and a hand-held camera sways: the whole scene then shifts between frames, the background
+model marks every edge as moving, and the particles' dynamics, which extrapolate the
+target's image motion, are thrown by the camera's. This module estimates that motion from
+the frames themselves: corners (Shi-Tomasi) of the previous frame followed into the current
+one by pyramidal Lucas-Kanade, and a similarity (shift, rotation, zoom) fitted to them by
+RANSAC, so that the target and other moving things count as outliers. The cues are then
+compensated: the particles and the background model are carried with the scene.
+
+A transform is a ``(2, 3)`` matrix ``[[a, -b, tx], [b, a, ty]]`` taking a pixel of the previous
+frame to where that scene point is in the current one.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+__all__ = ['CameraMotionParameters', 'estimate_camera_motion', 'move_states']
+
+
+@dataclass(frozen=True)
+class CameraMotionParameters:
+    """Constants of the camera-motion estimate.
+
+    Attributes:
+        max_features: Corners followed from one frame to the next.
+        feature_quality: Shi-Tomasi quality level of a corner, relative to the best one.
+        feature_spacing: Smallest distance between corners, pixels.
+        ransac_threshold: Reprojection error, pixels, under which a corner fits the similarity.
+        min_inliers: Corners that must fit for the estimate to count.
+        min_motion: Largest displacement, pixels, that any image corner undergoes below
+            which the camera counts as still (the identity is returned: on a fixed camera
+            nothing changes).
+    """
+
+    max_features: int = 200
+    feature_quality: float = 0.01
+    feature_spacing: float = 8.0
+    ransac_threshold: float = 1.0
+    min_inliers: int = 20
+    min_motion: float = 1.0
+
+
+def estimate_camera_motion(
+    previous: np.ndarray,
+    current: np.ndarray,
+    exclude: np.ndarray | None = None,
+    parameters: CameraMotionParameters = CameraMotionParameters(),
+) -> np.ndarray | None:
+    """The similarity taking ``previous`` to ``current``.
+
+    Args:
+        previous: ``(H, W) uint8`` grey-level frame.
+        current: ``(H, W) uint8`` grey-level frame of the same size.
+        exclude: Optional ``(H, W) uint8`` mask, non-zero where corners are not taken (the
+            tracked target, which moves on its own).
+        parameters: See :class:`CameraMotionParameters`.
+
+    Returns:
+        ``(2, 3) float64`` transform; the identity when the motion is below ``min_motion``;
+        None when too few corners could be followed or fitted (a blank or blurred frame).
+    """
+    if previous.shape != current.shape:
+        raise ValueError(f'frames differ in size: {previous.shape} and {current.shape}')
+    p = parameters
+    mask = None if exclude is None else np.where(exclude > 0, 0, 255).astype(np.uint8)
+    corners = cv2.goodFeaturesToTrack(previous, p.max_features, p.feature_quality, p.feature_spacing, mask=mask)
+    if corners is None or len(corners) < p.min_inliers:
+        return None
+    followed, status, _ = cv2.calcOpticalFlowPyrLK(previous, current, corners, None)
+    found = status.ravel() == 1
+    if int(found.sum()) < p.min_inliers:
+        return None
+    source, target = corners[found].reshape(-1, 2), followed[found].reshape(-1, 2)
+    transform, inliers = cv2.estimateAffinePartial2D(
+        source, target, method=cv2.RANSAC, ransacReprojThreshold=p.ransac_threshold
+    )
+    if transform is None or int(inliers.sum()) < p.min_inliers:
+        return None
+    height, width = previous.shape
+    frame_corners = np.array([[0, 0, 1], [width, 0, 1], [0, height, 1], [width, height, 1]], dtype=np.float64)
+    displacement = frame_corners @ transform.T - frame_corners[:, :2]
+    if np.max(np.hypot(displacement[:, 0], displacement[:, 1])) < p.min_motion:
+        return np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    return transform.astype(np.float64)
+
+
+def move_states(states: np.ndarray, transform: np.ndarray) -> np.ndarray:
+    """States [x, y, s, θ] ``(P, 4)`` carried by ``transform``: the centre mapped, the scale
+    multiplied by the zoom, the angle turned by the rotation."""
+    a, b = transform[0, 0], transform[1, 0]
+    moved = np.array(states, dtype=np.float64, copy=True)
+    moved[:, :2] = states[:, :2] @ transform[:, :2].T + transform[:, 2]
+    moved[:, 2] *= np.hypot(a, b)
+    moved[:, 3] += np.arctan2(b, a)
+    return moved

@@ -271,7 +271,7 @@ def _thread_policy(sequence: Path, init: str | None, out: Path, runs: int = 3) -
 
 
 def _skin(real_data: Path) -> list[dict[str, object]]:
-    from human_tracker.evaluation.skin import labelled_video_scores, scene_scores
+    from human_tracker.evaluation.skin import labelled_photo_scores, labelled_video_scores, scene_scores
 
     rows: list[dict[str, object]] = [
         {'sequence': name, 'truth': 'generator (exact)', **scene_scores(Path('bags') / name)}
@@ -280,6 +280,9 @@ def _skin(real_data: Path) -> list[dict[str, object]]:
     labels = Path('test/data/vtest_skin_labels.json')
     if (real_data / 'vtest').exists():
         rows.append({'sequence': 'vtest', 'truth': 'hand-labelled faces', **labelled_video_scores(labels, real_data)})
+    hgr = real_data.parent / 'skin' / 'hgr'
+    if hgr.is_dir():
+        rows.append({'sequence': 'hgr (178 photos)', 'truth': 'pixel masks', **labelled_photo_scores(hgr)})
     for row in rows:
         print(json.dumps(row))
     return rows
@@ -334,7 +337,8 @@ def main(argv: list[str] | None = None) -> int:
             _table(results['accuracy'], columns),
         ]
         results['skin'] = _skin(options.real_data)
-        columns = ['sequence', 'truth', 'precision', 'recall', 'labelled_fraction', 'regions', 'regions_found']
+        columns = ['sequence', 'truth', 'precision', 'recall', 'f1', 'mean_photo_f1', 'labelled_fraction', 'regions']
+        columns += ['regions_found']
         report += ['## skin labels (§3.2) against true skin\n', _table(results['skin'], columns)]
     checks = _acceptance(results)
     if checks:

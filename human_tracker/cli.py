@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 from human_tracker.io.bags import BagError
+from human_tracker.io.frames import FrameSourceError
 from human_tracker.io.sequences import SequenceError
 
 __all__ = ['main']
@@ -129,6 +130,51 @@ def _train_skin(options: argparse.Namespace) -> int:
     return 0
 
 
+def _skin(options: argparse.Namespace) -> int:
+    import cv2
+    import numpy as np
+
+    from human_tracker.io.frames import open_frames
+    from human_tracker.vision.resolution import to_working, working_scale
+    from human_tracker.vision.skin import SkinModel, SkinSegmenter, default_skin_model, has_colour
+
+    source = open_frames(options.input)
+    model = SkinModel.load(options.model) if options.model else default_skin_model()
+    segmenter = SkinSegmenter(model)
+    options.out.mkdir(parents=True, exist_ok=True)
+    written, unreadable, grey = 0, [], 0
+    labelled = 0.0
+    try:
+        for index, image in enumerate(source):
+            stem = source.files[index].stem if source.files else f'{Path(options.input).stem}_{index:06d}'
+            if image is None:
+                unreadable.append(stem)
+                continue
+            if not has_colour(image):
+                grey += 1  # no chromaticity: written as no skin, counted
+                mask = np.zeros(image.shape[:2], np.uint8)
+            else:
+                # As the skin stage does: at the working width, cells scaled, labels back to full size.
+                scale = working_scale(image.shape[1], options.working_width)
+                mask = segmenter.segment(to_working(image, options.working_width), scale)
+                mask = cv2.resize(mask, (image.shape[1], image.shape[0]), interpolation=cv2.INTER_NEAREST)
+            cv2.imwrite(str(options.out / f'{stem}.png'), mask)
+            written += 1
+            labelled += float(np.count_nonzero(mask)) / mask.size
+    finally:
+        source.close()
+    print(
+        f'human_tracker skin: wrote {written} masks (255 = skin) to {options.out}; '
+        f'{labelled / max(written, 1):.1%} of the pixels labelled skin on average'
+    )
+    if grey:
+        print(f'human_tracker skin: {grey} grey-level frames (no colour, no skin)', file=sys.stderr)
+    if unreadable:
+        print(f'human_tracker skin: {len(unreadable)} unreadable images: {", ".join(unreadable)}', file=sys.stderr)
+        return 1
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``human_tracker``; returns the exit code."""
     parser = argparse.ArgumentParser(
@@ -214,10 +260,22 @@ def main(argv: list[str] | None = None) -> int:
     trainer.add_argument('--seed', type=int, default=0)
     trainer.set_defaults(run=_train_skin)
 
+    skin = commands.add_parser('skin', help='skin labels (§3.2) of a folder of images or a video, one PNG mask each')
+    skin.add_argument('input', help='folder of images (masks keep their file stems) or video file')
+    skin.add_argument('--out', type=Path, required=True, help='folder to write the masks to (255 = skin)')
+    skin.add_argument('--model', type=Path, help='skin classes (JSON from train-skin; default: the shipped ones)')
+    skin.add_argument(
+        '--working-width',
+        type=int,
+        default=320,
+        help='frames wider than this are segmented at this width, as the skin stage does (0: full size)',
+    )
+    skin.set_defaults(run=_skin)
+
     options = parser.parse_args(argv)
     try:
         return int(options.run(options))
-    except (SequenceError, BagError, ValueError, OSError) as err:
+    except (SequenceError, BagError, FrameSourceError, ValueError, OSError) as err:
         print(f'human_tracker {options.command}: error: {err}', file=sys.stderr)
         return 2
 

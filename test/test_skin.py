@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import json
 
+import cv2
 import numpy as np
 import pytest
 from conftest import REPO
 
 from human_tracker.cli import main
+from human_tracker.evaluation.skin import labelled_photo_scores
 from human_tracker.io.skin_samples import read_skin_samples
 from human_tracker.scenes.generator import SCENES, render_scene
 from human_tracker.vision.skin import (
@@ -26,6 +28,7 @@ from human_tracker.vision.skin import (
 )
 
 SKIN_SAMPLES = REPO.parent / 'shared' / 'data' / 'skin' / 'Skin_NonSkin.txt'
+HGR = REPO.parent / 'shared' / 'data' / 'skin' / 'hgr'
 SKIN_BGR = (95, 135, 200)  # I2 = 52.5, I3 = -6.25: inside the learnt classes
 
 
@@ -197,3 +200,34 @@ def test_the_shipped_model_is_what_train_skin_makes(tmp_path) -> None:
     for a, b in zip(trained.classes, shipped.classes, strict=True):
         np.testing.assert_allclose(a.mean, b.mean, atol=1e-3)
     assert trained.notes == shipped.notes
+
+
+def test_the_skin_command_writes_a_mask_per_image_and_counts_the_unreadable(tmp_path, capsys) -> None:
+    """`human_tracker skin`: one PNG per image, same stem, 255 = skin, as the skin stage labels it."""
+    frames = list(render_scene(SCENES['hand_wave']))[:2]
+    folder = tmp_path / 'in'
+    folder.mkdir()
+    for k, frame in enumerate(frames):
+        cv2.imwrite(str(folder / f'frame_{k}.png'), frame.image)
+    assert main(['skin', str(folder), '--out', str(tmp_path / 'out'), '--working-width', '0']) == 0
+    for k, frame in enumerate(frames):
+        mask = cv2.imread(str(tmp_path / 'out' / f'frame_{k}.png'), cv2.IMREAD_GRAYSCALE)
+        np.testing.assert_array_equal(mask, segment_skin(frame.image, default_skin_model()))
+        assert set(np.unique(mask)) == {0, 255}
+    # At the working width the labels come back at the frame's size.
+    assert main(['skin', str(folder), '--out', str(tmp_path / 'small'), '--working-width', '160']) == 0
+    assert cv2.imread(str(tmp_path / 'small' / 'frame_0.png')).shape[:2] == frames[0].image.shape[:2]
+    (folder / 'broken.png').write_bytes(b'not an image')
+    assert main(['skin', str(folder), '--out', str(tmp_path / 'again')]) == 1
+    assert '1 unreadable images: broken' in capsys.readouterr().err
+    assert main(['skin', str(tmp_path / 'nothing'), '--out', str(tmp_path / 'x')]) == 2
+
+
+@pytest.mark.skipif(not HGR.is_dir(), reason='../shared/data/skin/hgr is absent')
+def test_skin_labels_on_real_photos_with_pixel_masks() -> None:
+    """HGR's 178 photos of hands: the figures `make bench` reports (pooled and per photo)."""
+    scores = labelled_photo_scores(HGR)
+    print(f'HGR skin labels: {scores}')
+    assert scores['photos'] == 178
+    assert scores['precision'] >= 0.85 and scores['recall'] >= 0.75
+    assert 0.0 < scores['mean_photo_f1'] <= 1.0

@@ -18,7 +18,7 @@ from human_tracker.io.sequences import open_sequence
 from human_tracker.scenes.generator import SCENES, render_scene
 from human_tracker.vision.skin import SkinModel, SkinParameters, default_skin_model, segment_skin
 
-__all__ = ['box_mask', 'labelled_video_scores', 'scene_scores', 'skin_scores']
+__all__ = ['box_mask', 'labelled_photo_scores', 'labelled_video_scores', 'scene_scores', 'skin_scores']
 
 
 def box_mask(shape: tuple[int, int], boxes: Sequence[Sequence[int]]) -> np.ndarray:
@@ -90,3 +90,43 @@ def labelled_video_scores(
     finally:
         capture.release()
     return skin_scores(predicted, truth)
+
+
+def labelled_photo_scores(
+    folder: Path, model: SkinModel | None = None, parameters: SkinParameters | None = None
+) -> dict[str, float | int]:
+    """Scores on photos with pixel skin masks, laid out as HGR's (``../shared/data/skin/hgr``).
+
+    ``folder/images/<name>.jpg`` and ``folder/masks/<name>.bmp`` (0 = skin). Each photo is
+    segmented at its own size.
+
+    Returns:
+        ``photos``; ``precision``, ``recall`` and ``f1`` of the skin pixels, all photos pooled;
+        ``mean_photo_f1``, the F1 of each photo averaged.
+    """
+    model = model or default_skin_model()
+    hits = labelled = true = 0
+    photo_f1 = []
+    for path in sorted((folder / 'images').glob('*.jpg')):
+        image = cv2.imread(str(path), cv2.IMREAD_COLOR)
+        truth = cv2.imread(str(folder / 'masks' / f'{path.stem}.bmp'), cv2.IMREAD_GRAYSCALE)
+        if image is None or truth is None:
+            raise ValueError(f'{path.name}: the photo or its mask cannot be read')
+        labels = segment_skin(image, model, parameters) > 0
+        skin = truth == 0
+        photo_hits, photo_labelled, photo_true = (
+            int(np.count_nonzero(labels & skin)),
+            int(np.count_nonzero(labels)),
+            int(np.count_nonzero(skin)),
+        )
+        hits, labelled, true = hits + photo_hits, labelled + photo_labelled, true + photo_true
+        photo_f1.append(2.0 * photo_hits / (photo_labelled + photo_true) if photo_labelled + photo_true else 1.0)
+    precision = hits / labelled if labelled else 0.0
+    recall = hits / true if true else float('nan')
+    return {
+        'photos': len(photo_f1),
+        'precision': round(precision, 4),
+        'recall': round(recall, 4),
+        'f1': round(2.0 * hits / (labelled + true), 4) if labelled + true else float('nan'),
+        'mean_photo_f1': round(float(np.mean(photo_f1)), 4) if photo_f1 else float('nan'),
+    }

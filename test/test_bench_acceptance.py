@@ -1,4 +1,4 @@
-"""make bench's acceptance table: the issue's bars applied to a run's figures."""
+"""make bench's acceptance table: the issues' bars applied to a run's figures."""
 
 from __future__ import annotations
 
@@ -8,24 +8,42 @@ from human_tracker.bench import _acceptance
 def test_bars_are_applied_to_the_measured_figures() -> None:
     results = {
         'speed': {
-            'stages_ms': {'640x480': {'particle_filter_500': 0.8, 'pipeline': 4.0}},
+            'stages_ms': {'640x480': {'particle_filter_500': 0.8, 'pipeline': 4.0, 'hand_pipeline': 7.0}},
             'trackers_ms_640x480': {'ours (background cue)': 3.0, 'KCF': 2.0, 'CSRT': 25.0},
         },
         'accuracy': [
             {'sequence': 'a', 'tracker': 'ours (background cue)', 'precision_20px': 0.97, 'precision_20px_mean': 0.9},
             {'sequence': 'a', 'tracker': 'MIL', 'precision_20px': 0.8, 'precision_20px_mean': 0.95},
             {'sequence': 'a', 'tracker': 'KCF', 'precision_20px': 0.5},
-            {'sequence': 'a', 'tracker': 'CSRT', 'precision_20px': 1.0},  # shown, not a bar
             {'sequence': 'b', 'tracker': 'ours (background + skin)', 'precision_20px': 0.9},
             {'sequence': 'b', 'tracker': 'CamShift', 'precision_20px': 0.9},
+            {'sequence': 'trellis', 'tracker': 'ours (background cue)', 'precision_20px': 0.7, 'confident_wrong': 0.1},
+            {'sequence': 'trellis', 'tracker': 'ours (background cue, no box)', 'precision_20px': 0.5},
+            {'sequence': 'trellis', 'tracker': 'CSRT', 'precision_20px': 0.6},
+            {'sequence': 'hand2', 'tracker': 'ours (background + skin)', 'precision_20px': 0.3},
+            {'sequence': 'hand2', 'tracker': 'CSRT', 'precision_20px': 0.2},
         ],
+        'skin': [{'sequence': 'hgr', 'precision': 0.9, 'recall': 0.8, 'f1': 0.85}, {'sequence': 'x', 'recall': 0.1}],
     }
-    verdicts = {row['check']: (row['bar'], row['met']) for row in _acceptance(results)}
+    verdicts = {row['check']: (row['measured'], row['bar'], row['met']) for row in _acceptance(results)}
     assert verdicts == {
-        'particle filter step, 500 particles (ms)': (2.0, True),
-        'pipeline (ms) <= KCF': (2.0, False),
-        'pipeline (ms) <= CSRT / 5': (5.0, True),
-        'a: mean precision at 20 px >= CamShift, MIL, KCF': (0.95, False),
-        'b: mean precision at 20 px >= CamShift, MIL, KCF': (0.9, True),
+        'particle filter step, 500 particles (ms) <= 1': (0.8, 1.0, True),
+        'head pipeline (ms) <= CSRT / 5': (4.0, 5.0, True),
+        'hand pipeline (ms) <= 3 KCF': (7.0, 6.0, False),
+        'a: mean precision at 20 px >= CamShift, MIL, KCF': (0.9, 0.95, False),
+        'b: mean precision at 20 px >= CamShift, MIL, KCF': (0.9, 0.9, True),
+        'trellis: mean precision at 20 px >= CamShift, MIL, KCF': (0.7, 0.0, True),
+        'trellis: without a box >= 0.8 of with one': (0.5, 0.56, False),
+        'hand2: mean precision at 20 px >= CamShift, MIL, KCF': (0.3, 0.0, True),
+        'head sequences where ours >= CSRT (of 6)': (1, 4, False),
+        'hand2: mean precision at 20 px >= 0.6': (0.3, 0.6, False),
+        'hand2: mean precision at 20 px >= CSRT': (0.3, 0.2, True),
+        'a (ours): confident-wrong share <= 0.05': (0.0, 0.05, True),
+        'b (ours): confident-wrong share <= 0.05': (0.0, 0.05, True),
+        'trellis (ours): confident-wrong share <= 0.05': (0.1, 0.05, False),
+        'trellis (ours, no box): confident-wrong share <= 0.05': (0.0, 0.05, True),
+        'hand2 (ours): confident-wrong share <= 0.05': (0.0, 0.05, True),
+        'hgr: skin F1 >= 0.92': (0.85, 0.92, False),
+        'hgr: skin recall >= 0.9': (0.8, 0.9, False),
     }
     assert _acceptance({}) == []

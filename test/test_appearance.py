@@ -18,8 +18,10 @@ from human_tracker.vision.appearance import (
     region_histograms,
 )
 from human_tracker.vision.boxes import BoxRelation
-from human_tracker.vision.faces import FaceDetector, face_detector_available
+from human_tracker.vision.faces import Detection, FaceDetector, face_detector_available
 from human_tracker.vision.proposals import draw_with_proposals, log_prior_density, log_proposal_density
+from human_tracker.vision.target import TargetParameters, TargetTracker
+from human_tracker.vision.templates import head_and_shoulders
 
 REAL = Path(__file__).resolve().parents[2] / 'shared' / 'data' / 'real'
 UNIT = BoxRelation((0.0, 0.0), (1.0, 1.0))  # the region is the box of side s centred on (x, y)
@@ -166,3 +168,19 @@ def test_face_detector_finds_the_face_on_a_real_frame() -> None:
         assert found, 'no face found'
         x, y, w, h = found[0].box
         assert np.hypot(x + w / 2 - centre[0], y + h / 2 - centre[1]) < 0.3 * truth[2]
+
+
+def test_faces_re_anchor_the_reported_box() -> None:
+    """The first face on the head records where the box sits on it; a later face carries the
+    box with it (hand-computed), and the contour then carries it the same way."""
+    tracker = TargetTracker(head_and_shoulders(), parameters=TargetParameters(proposals='off'))
+    state = np.array([100.0, 100.0, 50.0, 0.0])
+    tracker.box_relation = BoxRelation.of((90.0, 95.0, 30.0, 30.0), state)  # a face box from the start
+    tracker._anchor_on_face(Detection((85.0, 90.0, 40.0, 40.0), 1.0), state)
+    # The box and the face share their centre (105, 110); the box is 30 / 40 = 0.75 of the face.
+    assert tracker.face_relation == BoxRelation((0.0, 0.0), (0.75, 0.75))
+    # The face moves by (+20, -10) and grows to 48: the box follows, 0.75 of 48 = 36 wide.
+    tracker._anchor_on_face(Detection((105.0, 80.0, 48.0, 48.0), 1.0), state)
+    np.testing.assert_allclose(tracker.box_relation.box(state), (111.0, 86.0, 36.0, 36.0))
+    # Between detections the contour carries it: 10 px to the right.
+    np.testing.assert_allclose(tracker.box_relation.box(state + [10.0, 0.0, 0.0, 0.0]), (121.0, 86.0, 36.0, 36.0))

@@ -80,14 +80,17 @@ class FaceDetector:
         ]
         return sorted(found, key=lambda d: -d.score)
 
-    def detect_near(self, image: np.ndarray, box: tuple[float, float, float, float]) -> list[Detection]:
-        """Faces within twice the face ``box``'s size (x, y, w, h) of its centre.
+    def detect_near(
+        self, image: np.ndarray, box: tuple[float, float, float, float], reach: float = 2.0
+    ) -> list[Detection]:
+        """Faces within ``reach`` times the face ``box``'s size (x, y, w, h) of its centre.
 
         The region is resized so that a face of ``box``'s size is just detectable without
-        upsampling: a few milliseconds instead of a whole frame's tens.
+        upsampling: a few milliseconds instead of a whole frame's tens, and faces smaller
+        than the whole-frame search finds.
         """
         x, y, w, h = box
-        size = 2.0 * max(w, h)
+        size = reach * max(w, h)
         height, width = image.shape[:2]
         left, top = int(max(0, x + w / 2 - size)), int(max(0, y + h / 2 - size))
         right, bottom = int(min(width, x + w / 2 + size)), int(min(height, y + h / 2 + size))

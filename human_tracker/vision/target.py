@@ -83,6 +83,10 @@ FACE_MATCH_DISTANCE = 0.75
 # Detector runs near the track in a row that found no face on it before one searches the
 # whole frame.
 SEARCH_AFTER_MISSES = 3
+# The whole-frame search (upsampled once) finds faces from about this wide (working pixels);
+# a smaller face last seen is searched for within this many of its sizes of where it was.
+SMALLEST_FACE_IN_FRAME = 40.0
+SEARCH_REACH = 4.0
 
 WAITING = 'WAITING'
 TRACKING = 'TRACKING'
@@ -329,6 +333,7 @@ class TargetTracker:
     box_relation: BoxRelation | None = field(default=None, init=False)
     face_relation: BoxRelation | None = field(default=None, init=False)
     face_misses: int = field(default=0, init=False)
+    last_face: tuple[float, float, float, float] | None = field(default=None, init=False)
     previous_frame: np.ndarray | None = field(default=None, init=False)
     start_box: tuple[float, float, float, float] | None = field(default=None, init=False)
     detector: FaceDetector | None = field(default=None, init=False)
@@ -390,6 +395,7 @@ class TargetTracker:
         self.box_relation = None
         self.face_relation = None
         self.face_misses = 0
+        self.last_face = None
         self.previous_frame = None
         self.start_box = None
         self.frames = 0
@@ -535,6 +541,7 @@ class TargetTracker:
         working_state = estimate.state
         if face is not None and self.status == TRACKING:
             self._anchor_on_face(face, working_state)
+            self.last_face = face.box
         estimate = self._to_camera(estimate)
         if self.box_relation is not None:
             estimate = replace(estimate, box=self.box_relation.box(estimate.state))
@@ -626,6 +633,9 @@ class TargetTracker:
             predicted = self.filter.particles.mean(axis=0)
             return self.detector.detect_near(grey, FACE_ON_HEAD.box(predicted))
         self.face_misses = 0
+        if self.last_face is not None and self.last_face[2] < SMALLEST_FACE_IN_FRAME:
+            # A face too small for the whole-frame search: look around where it was last seen.
+            return self.detector.detect_near(grey, self.last_face, reach=SEARCH_REACH)
         return self.detector.detect(grey, upsample=1)
 
     def _anchor_on_face(self, face: Detection, state: np.ndarray) -> None:

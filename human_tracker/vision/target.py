@@ -605,9 +605,9 @@ class TargetTracker:
         estimated away from the target (``compensate_camera``)."""
         previous, self.previous_frame = self.previous_frame, grey
         particles = self.filter.particles
-        if not self.parameters.compensate_camera or previous is None or previous.shape != grey.shape:
+        if not self.parameters.compensate_camera or particles is None or previous is None:
             return
-        if particles is None:
+        if previous.shape != grey.shape:
             return
         x, y, s = particles.mean(axis=0)[:3]
         exclude = np.zeros(grey.shape, np.uint8)
@@ -621,8 +621,9 @@ class TargetTracker:
         """Faces on this working frame, None when the detector does not run on it.
 
         It runs every ``detect_every`` frames: near the predicted face while the target is
-        tracked, on the whole frame while it is not, or after ``SEARCH_AFTER_MISSES`` runs in
-        a row found no face on it (a contour on clutter finds no face near itself).
+        tracked; on the whole frame while it is not, or after ``SEARCH_AFTER_MISSES`` runs in
+        a row found no face on it (a contour on clutter finds no face near itself), or, for a
+        face last seen too small for that, around where it was.
         """
         self.frames += 1
         if self.detector is None or (self.frames - 1) % self.parameters.detect_every:
@@ -754,12 +755,11 @@ def _face_on(detections: list[Detection], state: np.ndarray) -> Detection | None
     within ``FACE_MATCH_DISTANCE`` face widths of where the contour puts the face, of about
     its size (a factor 1.5)."""
     x, y, size, height = FACE_ON_HEAD.box(state)
-    centre = np.array([x + size / 2, y + height / 2])
+    centre_x, centre_y = x + size / 2, y + height / 2
     for detection in detections:
         x, y, w, h = detection.box
-        if np.hypot(x + w / 2 - centre[0], y + h / 2 - centre[1]) <= FACE_MATCH_DISTANCE * size and (
-            1 / 1.5 <= w / size <= 1.5
-        ):
+        near = np.hypot(x + w / 2 - centre_x, y + h / 2 - centre_y) <= FACE_MATCH_DISTANCE * size
+        if near and 1 / 1.5 <= w / size <= 1.5:
             return detection
     return None
 

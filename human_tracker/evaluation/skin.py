@@ -29,6 +29,12 @@ def box_mask(shape: tuple[int, int], boxes: Sequence[Sequence[int]]) -> np.ndarr
     return mask
 
 
+def _pixel_counts(labels: np.ndarray, skin: np.ndarray) -> tuple[int, int, int]:
+    """Skin pixels labelled skin, pixels labelled skin, true skin pixels of one frame."""
+    labelled = np.asarray(labels) > 0
+    return int(np.count_nonzero(labelled & skin)), int(np.count_nonzero(labelled)), int(np.count_nonzero(skin))
+
+
 def skin_scores(predicted: Sequence[np.ndarray], truth: Sequence[np.ndarray]) -> dict[str, float | int]:
     """Pixel precision and recall over frames, and how many true skin regions got any label.
 
@@ -44,9 +50,8 @@ def skin_scores(predicted: Sequence[np.ndarray], truth: Sequence[np.ndarray]) ->
     hits = labelled = true = pixels = regions = found = 0
     for labels, skin in zip(predicted, truth, strict=True):
         labels = np.asarray(labels) > 0
-        hits += int(np.count_nonzero(labels & skin))
-        labelled += int(np.count_nonzero(labels))
-        true += int(np.count_nonzero(skin))
+        counts = _pixel_counts(labels, skin)
+        hits, labelled, true = hits + counts[0], labelled + counts[1], true + counts[2]
         pixels += labels.size
         count, components = cv2.connectedComponents(skin.astype(np.uint8), connectivity=8)
         regions += count - 1
@@ -112,13 +117,7 @@ def labelled_photo_scores(
         truth = cv2.imread(str(folder / 'masks' / f'{path.stem}.bmp'), cv2.IMREAD_GRAYSCALE)
         if image is None or truth is None:
             raise ValueError(f'{path.name}: the photo or its mask cannot be read')
-        labels = segment_skin(image, model, parameters) > 0
-        skin = truth == 0
-        photo_hits, photo_labelled, photo_true = (
-            int(np.count_nonzero(labels & skin)),
-            int(np.count_nonzero(labels)),
-            int(np.count_nonzero(skin)),
-        )
+        photo_hits, photo_labelled, photo_true = _pixel_counts(segment_skin(image, model, parameters), truth == 0)
         hits, labelled, true = hits + photo_hits, labelled + photo_labelled, true + photo_true
         photo_f1.append(2.0 * photo_hits / (photo_labelled + photo_true) if photo_labelled + photo_true else 1.0)
     precision = hits / labelled if labelled else 0.0

@@ -72,7 +72,13 @@ TARGET_PARAMETERS = (
         0.0,
         1.0,
     ),
-    ParameterSpec('proposals', 'faces (face detections draw particles, start and restart; needs dlib) or off.'),
+    ParameterSpec(
+        'proposals',
+        'faces (face detections draw particles, start and restart; needs dlib), skin (skin regions draw'
+        ' particles: a hand) or off.',
+        runtime=False,
+    ),
+    ParameterSpec('avoid_faces', 'A hand: a contour on a detected face is weak; no hypothesis there.', runtime=False),
     ParameterSpec('detect_every', 'Run the face detector on every this many frames.', 1, 100000),
     ParameterSpec('compensate_camera', "Carry the particles with the camera's own image motion before predicting."),
     ParameterSpec(
@@ -115,6 +121,12 @@ TARGET_PARAMETERS = (
     ParameterSpec(
         'lost_motion_support',
         'Fraction of contour points on the motion mask below which a frame is weak; 0: off.',
+        0.0,
+        1.0,
+    ),
+    ParameterSpec(
+        'init_motion_support',
+        'With a motion mask, fraction of contour points on it a hypothesis needs to start the filter.',
         0.0,
         1.0,
     ),

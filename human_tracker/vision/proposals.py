@@ -17,16 +17,36 @@ no past: their previous state is their current one (zero velocity in the AR(2) m
 
 from __future__ import annotations
 
+import numba
 import numpy as np
-from scipy.special import logsumexp
 
 __all__ = ['log_prior_density', 'log_proposal_density', 'draw_with_proposals']
 
 
-def _log_gaussians(states: np.ndarray, means: np.ndarray, stds: np.ndarray) -> np.ndarray:
-    """``(R, M)`` log N(states_r; means_m, diag(stds_m²)) of ``(R, 4)`` states, ``(M, 4)`` means and stds."""
-    z = (states[:, None, :] - means[None, :, :]) / stds[None, :, :]
-    return -0.5 * np.sum(z * z, axis=2) - np.sum(np.log(stds), axis=1)[None, :] - 2.0 * np.log(2.0 * np.pi)
+@numba.njit(cache=True, nogil=True)
+def _log_mixture(states: np.ndarray, means: np.ndarray, stds: np.ndarray) -> np.ndarray:
+    """``(R,)`` log of the equal mixture (1/M) Σ_m N(states_r; means_m, diag(stds_m²)) of
+    ``(R, 4)`` states, ``(M, 4)`` means and stds (the log-sum-exp taken per state)."""
+    count = means.shape[0]
+    norms = np.empty(count)
+    for m in range(count):
+        norms[m] = -np.sum(np.log(stds[m])) - 2.0 * np.log(2.0 * np.pi)
+    terms = np.empty(count)
+    out = np.empty(states.shape[0])
+    for r in range(states.shape[0]):
+        best = -np.inf
+        for m in range(count):
+            squared = 0.0
+            for k in range(4):
+                z = (states[r, k] - means[m, k]) / stds[m, k]
+                squared += z * z
+            terms[m] = norms[m] - 0.5 * squared
+            best = max(best, terms[m])
+        total = 0.0
+        for m in range(count):
+            total += np.exp(terms[m] - best)
+        out[r] = best + np.log(total) - np.log(count)
+    return out
 
 
 def _stds(states: np.ndarray, spread: np.ndarray) -> np.ndarray:
@@ -53,12 +73,12 @@ def log_prior_density(
         process_noise: ``(4,)`` W's standard deviations (s as a fraction of the scale).
     """
     means = current + velocity_damping * (current - previous)
-    return logsumexp(_log_gaussians(states, means, _stds(current, process_noise)), axis=1) - np.log(len(current))
+    return _log_mixture(np.asarray(states, dtype=np.float64), means, _stds(current, process_noise))
 
 
 def log_proposal_density(states: np.ndarray, detections: np.ndarray, spread: np.ndarray) -> np.ndarray:
     """``(R,)`` log g(x): an equal mixture of Gaussians of ``spread`` around ``detections`` ``(D, 4)``."""
-    return logsumexp(_log_gaussians(states, detections, _stds(detections, spread)), axis=1) - np.log(len(detections))
+    return _log_mixture(np.asarray(states, dtype=np.float64), detections, _stds(detections, spread))
 
 
 def draw_with_proposals(

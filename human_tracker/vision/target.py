@@ -21,7 +21,8 @@ a row, fewer than ``lost_confidence`` of the points find an edge, or (with
 test suits the background cue, where a person who stands still is still foreground; with
 optical flow a still person does not move, so it stays off there. A lost target comes back
 through a motion hypothesis when a mask is given (the filter's own fit on clutter is no
-evidence of the person), and when the edges fit again when there is no mask.
+evidence of the person), when the edges fit again when there is no mask, and, with skin
+labels, after ``lost_frames`` frames in a row that are not weak.
 
 Skin labels (§3.2) enter in one of the paper's two ways (``colour_mode``): the colour term
 γ_colour in the likelihood (``weighted``), or as the area the template is fitted in
@@ -70,7 +71,7 @@ COLOUR_MODES = ('off', 'weighted', 'mask')
 INIT_METHODS = ('scan', 'moments')
 INIT_REGIONS = ('motion', 'skin')
 LIKELIHOODS = ('fused', 'paper')
-PROPOSALS = ('faces', 'off')
+PROPOSALS = ('faces', 'skin', 'off')
 
 # Where the contour is sought around a start box: scale factors, and x / y offsets in units
 # of the box's scale (the head-and-shoulders outline around a face box is larger and higher).
@@ -87,6 +88,9 @@ SEARCH_AFTER_MISSES = 3
 # a smaller face last seen is searched for within this many of its sizes of where it was.
 SMALLEST_FACE_IN_FRAME = 40.0
 SEARCH_REACH = 4.0
+# A hand tracker avoiding faces searches the whole frame on every detector run until this
+# many whole-frame runs in a row found no face, then on one run in four.
+PATIENT_SEARCHES = 8
 
 WAITING = 'WAITING'
 TRACKING = 'TRACKING'
@@ -107,9 +111,16 @@ class TargetParameters:
             above which a frame is weak, and above which a hypothesis does not start the
             filter once the target's appearance is known.
         proposals: ``faces`` (face detections draw particles and start or restart the
-            track, :mod:`~human_tracker.vision.proposals`; needs dlib) or ``off``.
+            track, :mod:`~human_tracker.vision.proposals`; needs dlib), ``skin`` (the
+            moments of the skin regions that hypotheses come from draw particles, spread as
+            widely as a hypothesis's cloud: for a hand) or ``off``.
         detect_every: Run the detector on every this many frames (around the predicted face
             while tracking, on the whole working frame while searching).
+        avoid_faces: For a hand: faces the detector finds (every ``detect_every`` frames,
+            around the last one found) are not the target. A face is skin and about a hand's
+            size, and a hand passing in front of it leaves the contour there: a contour on the
+            face found last is a weak frame, and the face is cut from the skin regions that
+            hypotheses come from. Needs dlib.
         compensate_camera: Carry the particles with the camera's own image motion between
             frames (:mod:`~human_tracker.vision.camera_motion`, estimated away from the
             target) before each prediction, so the AR(2) velocity is the target's own. Off by
@@ -142,8 +153,11 @@ class TargetParameters:
         lost_motion_support: Fraction of contour points on the motion mask below which a
             frame with a mask is weak; 0 disables the test (use it with the foreground cue).
         lost_skin_support: Share of the contour's interior on skin below which a frame with
-            skin labels is weak (a hand that left the view leaves the contour on the room),
-            and below which a hypothesis does not start the filter; 0 disables the test.
+            skin labels is weak (a hand that left the view leaves the contour on the room);
+            0 disables the test.
+        init_motion_support: With a motion mask, the fraction of a hypothesis's contour
+            points on it that the hypothesis needs to start the filter: for a hand, found
+            among the skin regions that move, not on skin-coloured things that stand still.
         lost_frames: Consecutive weak frames after which the target is lost.
         colour_edges: Detect edges on the colour image (strongest channel per pixel) when
             ``process`` is given one, not on its intensity.
@@ -162,6 +176,7 @@ class TargetParameters:
     lost_appearance_distance: float = 0.5
     proposals: str = 'faces'
     detect_every: int = 5
+    avoid_faces: bool = False
     compensate_camera: bool = False
     motion_mode: str = 'weighted'
     max_motion_fraction: float = 0.5
@@ -179,6 +194,7 @@ class TargetParameters:
     lost_confidence: float = 0.3
     lost_motion_support: float = 0.0
     lost_skin_support: float = 0.0
+    init_motion_support: float = 0.0
     lost_frames: int = 5
     colour_edges: bool = False
     edge_blur_sigma: float = 1.5
@@ -199,6 +215,8 @@ class TargetParameters:
         for name, allowed in choices.items():
             if getattr(self, name) not in allowed:
                 raise ValueError(f'{name} must be one of {", ".join(allowed)}, got {getattr(self, name)!r}')
+        if self.avoid_faces and self.proposals == 'faces':
+            raise ValueError('avoid_faces is for a hand: with proposals: faces, faces are the target')
         if self.detect_every < 1:
             raise ValueError(f'detect_every must be >= 1, got {self.detect_every}')
         if self.appearance_parts < 1:
@@ -221,7 +239,7 @@ class TargetParameters:
                 f'hypothesis_samples and hypothesis_blobs must be >= 1, got '
                 f'{self.hypothesis_samples}, {self.hypothesis_blobs}'
             )
-        for name in ('lost_confidence', 'lost_motion_support', 'lost_skin_support'):
+        for name in ('lost_confidence', 'lost_motion_support', 'lost_skin_support', 'init_motion_support'):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ValueError(f'{name} must be in [0, 1], got {getattr(self, name)}')
         if self.lost_frames < 1:
@@ -249,22 +267,27 @@ def parameters_for(target: str) -> TargetParameters:
 
     The head starts from the top of the moving region (§2.5.2) and fits intensity edges. The
     hand starts from the moments (§2.5.1) of skin regions and fits colour edges: a hand is
-    often as bright as what is behind it, but rarely the same colour. It keeps the paper's
-    likelihood: on the real hand2 sequence the appearance term lost the hand sooner (precision
-    0.17 against 0.23, seeds 0-2), its palm histogram matching the skin-coloured wall.
+    often as bright as what is behind it, but rarely the same colour. Skin regions away from
+    the face draw particles (a waving hand outruns the AR(2) prediction), and the face is
+    avoided. It keeps the paper's likelihood: on the real hand2 sequence the appearance term
+    lost the hand sooner (precision 0.17 against 0.23, seeds 0-2), its palm histogram matching
+    the skin-coloured wall.
     """
     if target == 'hand':
         # No switching while a hand is tracked: it stops and starts waving, and a swaying
         # face or sleeve then moves more. A hand that leaves takes the skin from inside the
         # contour, so it is lost, and found again among the skin regions when it comes back.
+        # A blurred waving hand keeps about half its contour's interior on skin.
         return TargetParameters(
             init_method='moments',
             init_region='skin',
-            proposals='off',
+            proposals='skin',
+            avoid_faces=True,
             likelihood='paper',
             hypothesis_blobs=3,
             switch_margin=1.0,
-            lost_skin_support=0.7,
+            lost_skin_support=0.5,
+            init_motion_support=0.25,
             colour_edges=True,
         )
     return TargetParameters()
@@ -327,6 +350,7 @@ class TargetTracker:
     parameters: TargetParameters = field(default_factory=TargetParameters)
     status: str = WAITING
     weak_frames: int = 0
+    steady_frames: int = 0
     filter: ContourTracker = field(init=False)
     scale: float = field(default=1.0, init=False)
     appearance: AppearanceModel | None = field(default=None, init=False)
@@ -342,14 +366,19 @@ class TargetTracker:
     def __post_init__(self) -> None:
         self.parameters.validate()
         self.filter = ContourTracker(self.template, self.filter_parameters)
-        if self.parameters.proposals == 'faces' and face_detector_available():
+        if self._wants_faces and face_detector_available():
             self.detector = FaceDetector()
 
     @property
+    def _wants_faces(self) -> bool:
+        return self.parameters.proposals == 'faces' or self.parameters.avoid_faces
+
+    @property
     def proposals_problem(self) -> str | None:
-        """Why face proposals asked for are off (dlib missing), or None."""
-        if self.parameters.proposals == 'faces' and self.detector is None:
-            return 'proposals: faces needs dlib (pip install dlib-bin, or apt install python3-dlib); running without'
+        """Why the face detector asked for is off (dlib missing), or None."""
+        if self._wants_faces and self.detector is None:
+            wanted = 'proposals: faces' if self.parameters.proposals == 'faces' else 'avoid_faces'
+            return f'{wanted} needs dlib (pip install dlib-bin, or apt install python3-dlib); running without'
         return None
 
     def set_filter_parameters(self, parameters: TrackerParameters) -> None:
@@ -390,7 +419,7 @@ class TargetTracker:
         """Forget the target; wait for motion or a box."""
         self.filter.reset()
         self.status = WAITING
-        self.weak_frames = 0
+        self.weak_frames = self.steady_frames = 0
         self.appearance = None
         self.box_relation = None
         self.face_relation = None
@@ -403,8 +432,15 @@ class TargetTracker:
     def initial_region(self, motion: np.ndarray | None, skin: np.ndarray | None) -> np.ndarray | None:
         """The mask X_0 is computed from (``init_region``), or None without the cues it needs."""
         if self.parameters.init_region == 'skin' and skin is not None:
-            return skin
-        return motion if motion is not None else skin
+            region = skin
+        else:
+            region = motion if motion is not None else skin
+        if region is None or not self.parameters.avoid_faces or self.last_face is None:
+            return region
+        x, y, w, h = _face_and_neck(self.last_face)
+        region = region.copy()
+        region[max(0, int(y)) : max(0, int(y + h)), max(0, int(x)) : max(0, int(x + w))] = 0
+        return region
 
     def initial_states(self, region: np.ndarray) -> list[np.ndarray]:
         """Candidate X_0 from a region mask (§2.5) at the working resolution; empty if there is no usable region."""
@@ -425,12 +461,14 @@ class TargetTracker:
         motion: np.ndarray | None = None,
         skin: np.ndarray | None = None,
         appearance: Appearance | None = None,
+        starts: list[np.ndarray] | None = None,
     ) -> Hypothesis | None:
-        """The best-fitting state in clouds around the X_0 of ``region``, with its scores."""
+        """The best-fitting state in clouds around the X_0 of ``region`` (``starts`` when they
+        are already known), with its scores."""
         fp = self.filter.parameters
         best: tuple[float, Hypothesis] | None = None
         n = self.template.num_points
-        for start in self.initial_states(region):
+        for start in self.initial_states(region) if starts is None else starts:
             if not fp.min_scale <= start[2] <= fp.max_scale:
                 continue
             # Twice the initial spread: X_0 from a mask is coarse, the cloud must reach the silhouette.
@@ -500,16 +538,23 @@ class TargetTracker:
             self._settle_on_start_box(edges, likelihood_motion, likelihood_skin, bins)
         self.start_box = None
         detections = self._detect(image)
-        states = np.array([FACE_ON_HEAD.state(d.box) for d in detections]) if detections else None
+        # Faces are the target's proposals, or (avoid_faces) what the hand is not.
+        head_faces = detections if p.proposals == 'faces' else None
+        states = np.array([FACE_ON_HEAD.state(d.box) for d in head_faces]) if head_faces else None
+        region = self.initial_region(motion, skin)
+        skin_starts = None
+        if p.proposals == 'skin' and skin is not None:
+            skin_starts = self.initial_states(self.initial_region(None, skin))
+            states = np.array(skin_starts) if skin_starts else None
         appearance = self._appearance_term(bins)
         estimate = (
-            self.filter.step(edges, likelihood_motion, likelihood_skin, appearance, states)
+            self.filter.step(edges, likelihood_motion, likelihood_skin, appearance, states, **self._skin_draws())
             if self.filter.initialised
             else None
         )
         initialised = False
-        face = None if estimate is None or not detections else _face_on(detections, estimate.state)
-        restart = None if states is None else self._restart_on_face(states, face, estimate, appearance)
+        face = None if estimate is None or not head_faces else _face_on(head_faces, estimate.state)
+        restart = None if not head_faces else self._restart_on_face(states, face, estimate, appearance)
         if restart is not None:
             # A face where the filter has no (or a weak, or a faceless) target: start there. The
             # appearance learnt before is kept if the face still looks like it (the light may
@@ -523,13 +568,14 @@ class TargetTracker:
             estimate = self.filter.step(edges, likelihood_motion, likelihood_skin, appearance, states)
             self.status, self.weak_frames, initialised = TRACKING, 0, True
             face = detections[restart]
-        if detections is not None and self.status == TRACKING:
+        if head_faces is not None and self.status == TRACKING:
             self.face_misses = 0 if face is not None else self.face_misses + 1
-        region = self.initial_region(motion, skin)
         found = None
         if region is not None and not initialised and self._may_switch(estimate):
-            found = self.hypothesis(region, edges, motion, likelihood_skin, appearance)
-        if found is not None and self._should_start(found, estimate):
+            # With skin proposals and skin regions as the region, its X_0 are already known.
+            starts = skin_starts if p.init_region == 'skin' else None
+            found = self.hypothesis(region, edges, motion, likelihood_skin, appearance, starts)
+        if found is not None and self._should_start(found, estimate, motion is not None):
             # A new target's appearance is learnt once the filter has settled on it (below): X_0
             # from a region is coarse, and colours learnt there would hold the background.
             self.filter.initialise(found.state)
@@ -539,13 +585,19 @@ class TargetTracker:
         if estimate is None:
             return TargetResult(self.status, None, motion_set_aside=set_aside, detections=shown)
         working_state = estimate.state
+        on_face = (
+            p.avoid_faces
+            and self.face_misses == 0
+            and self.last_face is not None
+            and _centre_within(estimate.box, _face_and_neck(self.last_face))
+        )
         if face is not None and self.status == TRACKING:
             self._anchor_on_face(face, working_state)
             self.last_face = face.box
         estimate = self._to_camera(estimate)
         if self.box_relation is not None:
             estimate = replace(estimate, box=self.box_relation.box(estimate.state))
-        weak = estimate.confidence < p.lost_confidence
+        weak = estimate.confidence < p.lost_confidence or on_face
         if appearance is not None and estimate.appearance_distance > p.lost_appearance_distance:
             weak = True
         if motion is not None and estimate.motion_support < p.lost_motion_support:
@@ -553,6 +605,7 @@ class TargetTracker:
         if likelihood_skin is not None and estimate.skin_support < p.lost_skin_support:
             weak = True
         self.weak_frames = self.weak_frames + 1 if weak else 0
+        self.steady_frames = 0 if weak else self.steady_frames + 1
         if not weak and self.status == TRACKING and bins is not None:
             if self.appearance is not None:
                 self.appearance.adapt(bins, working_state, p.adaptation_rate)
@@ -562,9 +615,14 @@ class TargetTracker:
                 self.appearance = AppearanceModel.learn(bins, working_state, self._own_region(), p.appearance_parts)
         if self.weak_frames >= p.lost_frames:
             self.status = LOST
-        elif self.weak_frames == 0 and self.status == LOST and region is None:
+        elif self.status == LOST and (
+            (self.weak_frames == 0 and region is None)
+            or (likelihood_skin is not None and self.steady_frames >= p.lost_frames)
+        ):
             # Without a region cue the edge fit is the only evidence; with one, a lost target
-            # comes back only through a hypothesis (an edge fit on clutter is not the person).
+            # comes back through a hypothesis (an edge fit on clutter is not the person), or
+            # after as many steady frames as made it lost when skin under the contour says so
+            # (skin labels flicker off a hand for a few frames).
             self.status = TRACKING
         return TargetResult(self.status, estimate, initialised, set_aside, shown)
 
@@ -629,6 +687,8 @@ class TargetTracker:
         if self.detector is None or (self.frames - 1) % self.parameters.detect_every:
             return None
         grey = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+        if self.parameters.proposals != 'faces':
+            return self._detect_face_to_avoid(grey)
         tracked = self.status == TRACKING and self.filter.particles is not None and self.weak_frames == 0
         if tracked and self.face_misses < SEARCH_AFTER_MISSES:
             predicted = self.filter.particles.mean(axis=0)
@@ -638,6 +698,35 @@ class TargetTracker:
             # A face too small for the whole-frame search: look around where it was last seen.
             return self.detector.detect_near(grey, self.last_face, reach=SEARCH_REACH)
         return self.detector.detect(grey, upsample=1)
+
+    def _skin_draws(self) -> dict[str, object]:
+        """How skin regions draw particles, unlike faces: a region's moments are as coarse as X_0
+        (spread as a hypothesis's cloud), and a region is not a hand (the room has skin-coloured
+        wood, the arm its sleeve), so none restarts the filter: the draws keep the importance
+        correction, and a lost hand comes back through a hypothesis."""
+        if self.parameters.proposals != 'skin':
+            return {}
+        return {'detection_spread': 2.0 * np.asarray(self.filter.parameters.initial_spread), 'restart_share': 0.0}
+
+    def _detect_face_to_avoid(self, grey: np.ndarray) -> list[Detection]:
+        """Faces for ``avoid_faces``: around the last face found for ``SEARCH_AFTER_MISSES`` runs
+        (the hand may hide it for a while), then on the whole frame; after ``PATIENT_SEARCHES``
+        more runs found none, on one run in four (a whole-frame search takes 15-20 ms, and a
+        robot may see a hand and no face)."""
+        misses = self.face_misses
+        if self.last_face is not None and misses < SEARCH_AFTER_MISSES:
+            found = self.detector.detect_near(grey, self.last_face)
+        elif misses < SEARCH_AFTER_MISSES + PATIENT_SEARCHES or misses % 4 == 0:
+            found = self.detector.detect(grey, upsample=1)
+        else:
+            found = []
+        if found:
+            self.last_face, self.face_misses = found[0].box, 0
+            return found
+        if misses >= SEARCH_AFTER_MISSES:
+            self.last_face = None
+        self.face_misses += 1
+        return found
 
     def _anchor_on_face(self, face: Detection, state: np.ndarray) -> None:
         """Re-anchor the reported box on the face detected on the tracked head (working pixels).
@@ -697,9 +786,12 @@ class TargetTracker:
             return True
         return estimate.motion_support + self.parameters.switch_margin <= 1.0
 
-    def _should_start(self, found: Hypothesis, estimate: TrackEstimate | None) -> bool:
-        """Start on a hypothesis when there is no target, or when it is clearly better elsewhere."""
+    def _should_start(self, found: Hypothesis, estimate: TrackEstimate | None, moving: bool) -> bool:
+        """Start on a hypothesis when there is no target, or when it is clearly better elsewhere
+        (``moving``: whether the frame has a motion mask)."""
         p = self.parameters
+        if moving and found.motion_support < p.init_motion_support:
+            return False
         if found.skin_support < p.lost_skin_support or found.appearance_distance > p.lost_appearance_distance:
             return False  # it would be a weak frame at once
         if self.status != TRACKING or estimate is None:
@@ -762,6 +854,19 @@ def _face_on(detections: list[Detection], state: np.ndarray) -> Detection | None
         if near and 1 / 1.5 <= w / size <= 1.5:
             return detection
     return None
+
+
+def _face_and_neck(face: tuple[float, float, float, float]) -> tuple[float, float, float, float]:
+    """The skin around a detected face box (x, y, w, h): the box runs from the eyebrows to the
+    chin, and the forehead above it and the neck below it are skin of the same region."""
+    x, y, w, h = face
+    return (x - 0.2 * w, y - 0.3 * h, 1.4 * w, 2.1 * h)
+
+
+def _centre_within(box: tuple[float, float, float, float], outer: tuple[float, float, float, float]) -> bool:
+    """Whether the centre of ``box`` lies inside ``outer`` (both x, y, w, h)."""
+    x, y, w, h = outer
+    return x <= box[0] + box[2] / 2 <= x + w and y <= box[1] + box[3] / 2 <= y + h
 
 
 def _exposure_gain(image: np.ndarray, max_gain: float = 4.0) -> np.ndarray:

@@ -266,6 +266,8 @@ class ContourTracker:
         skin: np.ndarray | None = None,
         appearance: Appearance | None = None,
         detections: np.ndarray | None = None,
+        detection_spread: np.ndarray | None = None,
+        restart_share: float | None = None,
     ) -> TrackEstimate:
         """Predict, weigh against ``edges`` (and ``motion``, ``skin``, ``appearance``), estimate, resample.
 
@@ -277,6 +279,9 @@ class ContourTracker:
                 shape likelihood.
             detections: Optional ``(D, 4)`` states of detections: shares of the particles
                 are drawn around them (ICONDENSATION).
+            detection_spread: ``(4,)`` standard deviations of those draws, as
+                ``proposal_spread`` (its value when None).
+            restart_share: Share drawn without correction (``restart_share`` when None).
 
         Returns:
             The estimate for this frame.
@@ -302,9 +307,9 @@ class ContourTracker:
                 np.asarray(detections, dtype=np.float64),
                 velocity_damping=params.velocity_damping,
                 process_noise=np.asarray(params.process_noise),
-                spread=np.asarray(params.proposal_spread),
+                spread=np.asarray(params.proposal_spread if detection_spread is None else detection_spread),
                 importance_share=params.importance_share,
-                restart_share=params.restart_share,
+                restart_share=params.restart_share if restart_share is None else restart_share,
                 rng=self.rng,
             )
         np.clip(self.particles[:, 2], params.min_scale, params.max_scale, out=self.particles[:, 2])

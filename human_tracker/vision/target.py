@@ -542,9 +542,10 @@ class TargetTracker:
         head_faces = detections if p.proposals == 'faces' else None
         states = np.array([FACE_ON_HEAD.state(d.box) for d in head_faces]) if head_faces else None
         region = self.initial_region(motion, skin)
-        skin_starts = None
+        skin_region = skin_starts = None
         if p.proposals == 'skin' and skin is not None:
-            skin_starts = self.initial_states(self.initial_region(None, skin))
+            skin_region = region if p.init_region == 'skin' else self.initial_region(None, skin)
+            skin_starts = self.initial_states(skin_region)
             states = np.array(skin_starts) if skin_starts else None
         appearance = self._appearance_term(bins)
         estimate = (
@@ -572,8 +573,8 @@ class TargetTracker:
             self.face_misses = 0 if face is not None else self.face_misses + 1
         found = None
         if region is not None and not initialised and self._may_switch(estimate):
-            # With skin proposals and skin regions as the region, its X_0 are already known.
-            starts = skin_starts if p.init_region == 'skin' else None
+            # The skin proposals' X_0 when they came from this region.
+            starts = skin_starts if skin_region is region else None
             found = self.hypothesis(region, edges, motion, likelihood_skin, appearance, starts)
         if found is not None and self._should_start(found, estimate, motion is not None):
             # A new target's appearance is learnt once the filter has settled on it (below): X_0

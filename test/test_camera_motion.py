@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from human_tracker.vision.background import BackgroundModel, BackgroundParameters
-from human_tracker.vision.camera_motion import estimate_camera_motion, move_states
+from human_tracker.vision.camera_motion import CameraMotion, estimate_camera_motion, move_states
 from human_tracker.vision.templates import head_and_shoulders
 from human_tracker.vision.tracker import ContourTracker, TrackerParameters
 
@@ -66,6 +66,26 @@ def test_a_moving_target_does_not_count_as_the_camera() -> None:
         transform = estimate_camera_motion(before, after, mask)
         assert transform is not None
         np.testing.assert_allclose(transform[:, 2], [4.0, 0.0], atol=0.2)
+
+
+def test_a_stream_follows_its_corners_and_recovers_each_shift() -> None:
+    """Over a stream the corners that fitted are followed on: on a still camera all of them
+    are kept (no new detection), and a pan of (3, 1) px a frame is recovered from them."""
+    scene = _scene(5)
+    motion = CameraMotion()
+    frames = [_shifted(scene, 3.0 * k, 1.0 * k) for k in range(4)]
+    np.testing.assert_array_equal(motion.estimate(scene, scene.copy()), np.eye(2, 3))
+    kept = motion.corners
+    assert kept is not None and len(kept) >= motion.parameters.kept_share * motion.parameters.max_features
+    for previous, current in zip(frames, frames[1:], strict=False):
+        transform = motion.estimate(previous, current)
+        assert transform is not None
+        np.testing.assert_allclose(transform[:, 2], [3.0, 1.0], atol=0.1)
+    # Corners on the excluded region are dropped before they are followed.
+    exclude = np.full_like(scene, 255)
+    assert motion.estimate(frames[-1], frames[-1].copy(), exclude) is None
+    motion.reset()
+    assert motion.corners is None
 
 
 def test_states_move_with_the_camera() -> None:

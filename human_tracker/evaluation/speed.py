@@ -103,16 +103,15 @@ def stage_timings(
 def _pipeline(
     messages: list[_RawImage], box: tuple[float, float, float, float], parameters: TrackerParameters, working_width: int
 ) -> Callable[[int], object]:
-    """One frame of the head pipeline as the ``pipeline`` node runs it, cues at ``working_width``."""
+    """One frame of the head pipeline as the ``pipeline`` node runs it by default (background
+    cue; the tracker's appearance term, face proposals and camera compensation), at ``working_width``."""
     target = TargetTracker(head_and_shoulders(), parameters, TargetParameters(working_width=working_width))
     target.initialise_from_box(box)
-    cue, motion = BackgroundModel(), OpticalFlow()
+    cue = BackgroundModel()
 
     def run(i: int) -> object:
         image = message_to_bgr8(messages[i])
-        working = to_working(to_mono8(image), working_width)
-        mask = cue.apply(working)
-        motion.apply(working)
+        mask = cue.apply(to_working(to_mono8(image), working_width))
         return target.process(image, mask)  # colour: the appearance term's histograms
 
     return run

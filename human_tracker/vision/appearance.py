@@ -23,6 +23,7 @@ estimate's histograms at ``adaptation_rate`` only while the track is confident.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import cv2
 import numba
@@ -56,12 +57,22 @@ def colour_bins(image: np.ndarray) -> np.ndarray:
     if image.ndim == 2:
         value = image.astype(np.uint16) * VALUE_BINS // 256
         return (HUE_BINS * SATURATION_BINS + value).astype(np.uint8)
-    hsv = cv2.cvtColor(image, cv2.COLOR_BGR2HSV)  # OpenCV's hue: 0..179
-    hue = hsv[..., 0].astype(np.uint16) * HUE_BINS // 180
-    saturation = hsv[..., 1].astype(np.uint16) * SATURATION_BINS // 256
-    value = hsv[..., 2].astype(np.uint16) * VALUE_BINS // 256
-    coloured = (hsv[..., 1] >= MIN_SATURATION) & (hsv[..., 2] >= MIN_VALUE)
-    return np.where(coloured, hue * SATURATION_BINS + saturation, HUE_BINS * SATURATION_BINS + value).astype(np.uint8)
+    return _hsv_bins(cv2.cvtColor(image, cv2.COLOR_BGR2HSV))  # OpenCV's hue: 0..179
+
+
+@numba.njit(cache=True, nogil=True)
+def _hsv_bins(hsv: np.ndarray) -> np.ndarray:
+    """:func:`colour_bins` of an ``(H, W, 3) uint8`` HSV image, in one pass."""
+    height, width = hsv.shape[:2]
+    out = np.empty((height, width), dtype=np.uint8)
+    for v in range(height):
+        for u in range(width):
+            hue, saturation, value = np.int32(hsv[v, u, 0]), np.int32(hsv[v, u, 1]), np.int32(hsv[v, u, 2])
+            if saturation >= MIN_SATURATION and value >= MIN_VALUE:
+                out[v, u] = hue * HUE_BINS // 180 * SATURATION_BINS + saturation * SATURATION_BINS // 256
+            else:
+                out[v, u] = HUE_BINS * SATURATION_BINS + value * VALUE_BINS // 256
+    return out
 
 
 def bhattacharyya_distance(p: np.ndarray, q: np.ndarray) -> float:
@@ -69,14 +80,45 @@ def bhattacharyya_distance(p: np.ndarray, q: np.ndarray) -> float:
     return float(np.sqrt(max(0.0, 1.0 - float(np.sum(np.sqrt(p * q))))))
 
 
+@lru_cache(maxsize=8)
 def _grid(parts: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Sample offsets ``(G², 2)`` in a unit box centred on 0, their kernel weights and band."""
+    """Sample offsets ``(G², 2)`` in a unit box centred on 0, their kernel weights and band (read-only)."""
     ticks = (np.arange(GRID) + 0.5) / GRID - 0.5
     u, v = np.meshgrid(ticks, ticks)
     offsets = np.column_stack([u.ravel(), v.ravel()])
     kernel = 1.0 - (2.0 * offsets[:, 0]) ** 2 - (2.0 * offsets[:, 1]) ** 2 / 2.0  # Epanechnikov, flatter in v
     band = np.minimum(((offsets[:, 1] + 0.5) * parts).astype(np.int64), parts - 1)
-    return offsets, np.clip(kernel, 0.05, None), band
+    grid = (offsets, np.clip(kernel, 0.05, None), band)
+    for array in grid:
+        array.flags.writeable = False
+    return grid
+
+
+@numba.njit(cache=True, nogil=True, inline='always')
+def _accumulate(
+    bins: np.ndarray,
+    box: np.ndarray,
+    angle: float,
+    offsets: np.ndarray,
+    kernel: np.ndarray,
+    band: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """``out`` ``(parts, num_bins)``: the normalised histograms of one rotated box (cx, cy, w, h)."""
+    height, width = bins.shape
+    c = np.cos(angle)
+    s = np.sin(angle)
+    for k in range(offsets.shape[0]):
+        du = offsets[k, 0] * box[2]
+        dv = offsets[k, 1] * box[3]
+        u = int(box[0] + c * du - s * dv)
+        v = int(box[1] + s * du + c * dv)
+        if 0 <= u < width and 0 <= v < height:
+            out[band[k], bins[v, u]] += kernel[k]
+    for b in range(out.shape[0]):
+        total = out[b].sum()
+        if total > 0:
+            out[b] /= total
 
 
 @numba.njit(cache=True, nogil=True)
@@ -91,39 +133,51 @@ def _histograms(
     num_bins: int,
 ) -> np.ndarray:
     """``(P, parts, num_bins)`` normalised histograms of the rotated boxes (cx, cy, w, h)."""
-    height, width = bins.shape
     out = np.zeros((boxes.shape[0], parts, num_bins))
     for i in range(boxes.shape[0]):
-        c = np.cos(angles[i])
-        s = np.sin(angles[i])
-        for k in range(offsets.shape[0]):
-            du = offsets[k, 0] * boxes[i, 2]
-            dv = offsets[k, 1] * boxes[i, 3]
-            u = int(boxes[i, 0] + c * du - s * dv)
-            v = int(boxes[i, 1] + s * du + c * dv)
-            if 0 <= u < width and 0 <= v < height:
-                out[i, band[k], bins[v, u]] += kernel[k]
-        for b in range(parts):
-            total = out[i, b].sum()
-            if total > 0:
-                out[i, b] /= total
+        _accumulate(bins, boxes[i], angles[i], offsets, kernel, band, out[i])
     return out
 
 
 @numba.njit(cache=True, nogil=True)
-def _squared_distances(histograms: np.ndarray, reference: np.ndarray) -> np.ndarray:
-    """Mean over bands of D² = 1 - Σ sqrt(p q); a band with no sample in the image counts 1."""
-    count, parts, num_bins = histograms.shape
-    out = np.empty(count)
-    for i in range(count):
+def _squared_distances(
+    bins: np.ndarray,
+    boxes: np.ndarray,
+    angles: np.ndarray,
+    offsets: np.ndarray,
+    kernel: np.ndarray,
+    band: np.ndarray,
+    reference: np.ndarray,
+) -> np.ndarray:
+    """Mean over bands of D² = 1 - Σ sqrt(p q) of each box's histograms from ``reference``; a
+    band with no sample in the image counts 1. One histogram at a time: the (P, parts, bins)
+    array of them all took longer to fill than to compare."""
+    parts, num_bins = reference.shape
+    histogram = np.empty((parts, num_bins))
+    out = np.empty(boxes.shape[0])
+    for i in range(boxes.shape[0]):
+        histogram[:] = 0.0
+        _accumulate(bins, boxes[i], angles[i], offsets, kernel, band, histogram)
         total = 0.0
         for b in range(parts):
             coefficient = 0.0
             for u in range(num_bins):
-                coefficient += np.sqrt(histograms[i, b, u] * reference[b, u])
+                if histogram[b, u] > 0.0:
+                    coefficient += np.sqrt(histogram[b, u] * reference[b, u])
             total += max(0.0, 1.0 - coefficient)
         out[i] = total / parts
     return out
+
+
+def _region_boxes(states: np.ndarray, region: BoxRelation) -> tuple[np.ndarray, np.ndarray]:
+    """The region's rotated boxes (cx, cy, w, h) ``(P, 4)`` on the contours at ``states``, and their angles."""
+    states = np.atleast_2d(np.asarray(states, dtype=np.float64))
+    x, y, s, theta = states.T
+    c, sn = np.cos(theta), np.sin(theta)
+    u, v = region.centre
+    width, height = region.size
+    boxes = np.column_stack([x + s * (c * u - sn * v), y + s * (sn * u + c * v), s * width, s * height])
+    return boxes, np.ascontiguousarray(theta)
 
 
 def region_histograms(bins: np.ndarray, states: np.ndarray, region: BoxRelation, parts: int = 2) -> np.ndarray:
@@ -139,14 +193,9 @@ def region_histograms(bins: np.ndarray, states: np.ndarray, region: BoxRelation,
         ``(P, parts, NUM_BINS) float64``, each band's histogram summing to 1 (0 where the
         band lies wholly outside the image).
     """
-    states = np.atleast_2d(np.asarray(states, dtype=np.float64))
-    x, y, s, theta = states.T
-    c, sn = np.cos(theta), np.sin(theta)
-    u, v = region.centre
-    width, height = region.size
-    boxes = np.column_stack([x + s * (c * u - sn * v), y + s * (sn * u + c * v), s * width, s * height])
+    boxes, angles = _region_boxes(states, region)
     offsets, kernel, band = _grid(parts)
-    return _histograms(bins, boxes, np.ascontiguousarray(theta), offsets, kernel, band, parts, NUM_BINS)
+    return _histograms(bins, boxes, angles, offsets, kernel, band, parts, NUM_BINS)
 
 
 @dataclass
@@ -173,7 +222,9 @@ class AppearanceModel:
 
     def squared_distances(self, bins: np.ndarray, states: np.ndarray) -> np.ndarray:
         """``(P,)`` D², mean over the bands, of each state's region from the reference, in [0, 1]."""
-        return _squared_distances(region_histograms(bins, states, self.region, self.parts), self.reference)
+        boxes, angles = _region_boxes(states, self.region)
+        offsets, kernel, band = _grid(self.parts)
+        return _squared_distances(bins, boxes, angles, offsets, kernel, band, self.reference)
 
     def adapt(self, bins: np.ndarray, state: np.ndarray, rate: float) -> None:
         """Blend the histograms at ``state`` into the reference: q ← (1 - rate) q + rate p."""

@@ -28,7 +28,7 @@ import cv2
 import numba
 import numpy as np
 
-from human_tracker.vision.camera_motion import estimate_camera_motion
+from human_tracker.vision.camera_motion import CameraMotion
 from human_tracker.vision.morphology import disk
 
 __all__ = ['BackgroundParameters', 'BackgroundModel', 'background_decision']
@@ -159,6 +159,7 @@ class BackgroundModel:
     variance: np.ndarray | None = None
     previous: np.ndarray | None = None
     foreground: np.ndarray | None = None
+    camera: CameraMotion = field(default_factory=CameraMotion)
 
     def __post_init__(self) -> None:
         self.parameters.validate()
@@ -169,6 +170,7 @@ class BackgroundModel:
         self.variance = None
         self.previous = None
         self.foreground = None
+        self.camera.reset()
 
     def apply(self, gray: np.ndarray) -> np.ndarray:
         """Classify ``gray`` and update the model (step 3).
@@ -188,6 +190,7 @@ class BackgroundModel:
             self.variance = np.full(frame.shape, p.initial_variance, dtype=np.float32)
             self.previous = frame if frame.dtype == np.uint8 else None
             self.foreground = None
+            self.camera.reset()
             return np.zeros(frame.shape, dtype=np.uint8)
         if p.compensate_camera and frame.dtype == np.uint8 and self.previous is not None:
             self._follow_camera(frame)
@@ -214,7 +217,7 @@ class BackgroundModel:
     def _follow_camera(self, frame: np.ndarray) -> None:
         """Carry the reference frame with the camera's motion from the previous frame to ``frame``."""
         assert self.mean is not None and self.variance is not None and self.previous is not None
-        transform = estimate_camera_motion(self.previous, frame, self.foreground)
+        transform = self.camera.estimate(self.previous, frame, self.foreground)
         if transform is None:
             return  # nothing to follow (a blank frame): keep the model as it is
         if np.array_equal(transform, np.eye(2, 3)):

@@ -28,7 +28,11 @@ def blobs(mask: np.ndarray, min_area: int = 1, limit: int = 1) -> list[np.ndarra
     Returns:
         Boolean images, one per region (empty when there is none).
     """
-    count, labels, stats, _ = cv2.connectedComponentsWithStats((mask > 0).astype(np.uint8), connectivity=8)
+    binary = (mask > 0).astype(np.uint8)
+    # 16-bit labels take half the time; a mask has at most one 8-connected region per 2x2 cell.
+    cells = ((binary.shape[0] + 1) // 2) * ((binary.shape[1] + 1) // 2)
+    label_type = cv2.CV_16U if cells < np.iinfo(np.uint16).max else cv2.CV_32S
+    count, labels, stats, _ = cv2.connectedComponentsWithStats(binary, connectivity=8, ltype=label_type)
     areas = stats[1:, cv2.CC_STAT_AREA]
     order = [int(i) for i in np.argsort(-areas, kind='stable')[:limit] if areas[i] >= min_area]
     return [labels == i + 1 for i in order]

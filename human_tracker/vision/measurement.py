@@ -144,13 +144,6 @@ def _strongest_channel(dx: np.ndarray, dy: np.ndarray) -> tuple[np.ndarray, np.n
     return out_x, out_y
 
 
-@numba.njit(cache=True, fastmath=True, nogil=True)
-def _angle_apart(a_degrees: float, b_degrees: float) -> float:
-    """Difference of two orientations modulo 180 degrees, in [0, 90]."""
-    d = abs(a_degrees - b_degrees) % 180.0
-    return min(d, 180.0 - d)
-
-
 @numba.njit(cache=True, fastmath=True, nogil=True, inline='always')
 def _placed(
     x: float, y: float, scale: float, c: float, s: float, point: np.ndarray, normal: np.ndarray
@@ -199,7 +192,10 @@ def _contour_costs(
         moving_hits = 0
         for j in range(num_points):
             px, py, nx, ny = _placed(x, y, scale, c, s, points[j], normals[j])
-            normal_degrees = template_degrees[j] + turn_degrees
+            # Modulo 180 once per point, so that each probe only compares: edge labels are
+            # orientations in [0, 180), and two within the tolerance of each other either way
+            # round the half-turn are |a - b| <= t or >= 180 - t apart.
+            normal_degrees = (template_degrees[j] + turn_degrees) % 180.0
             found = -1.0
             zu = 0
             zv = 0
@@ -216,7 +212,8 @@ def _contour_costs(
                         and edges[v, u] != 0
                         and (
                             not check_orientation
-                            or _angle_apart(normal_degrees, edges[v, u] - 1.0) <= tolerance_degrees
+                            or abs(normal_degrees - (edges[v, u] - 1.0)) <= tolerance_degrees
+                            or abs(normal_degrees - (edges[v, u] - 1.0)) >= 180.0 - tolerance_degrees
                         )
                     ):
                         found = t

@@ -15,14 +15,13 @@ export PYTHONHASHSEED := 0
 
 venv: $(STAMP)
 
-$(STAMP): requirements.txt requirements-dev.txt
+$(STAMP): requirements.txt requirements-dev.txt setup.py
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade "pip>=24"
 	$(PY) -m pip install --quiet -r requirements-dev.txt
-	# The checkout itself goes on the venv's path (an editable install without a build step).
-	$(PY) -c 'import site, sys; open(site.getsitepackages()[0] + "/human_tracker_checkout.pth", "w").write(sys.argv[1])' $(CURDIR)
-	printf '#!/bin/sh\nexec "$$(dirname "$$0")/python" -m human_tracker.cli "$$@"\n' > $(VENV)/bin/human_tracker
-	chmod +x $(VENV)/bin/human_tracker
+	# The checkout, installed in place: every executable of setup.py lands in .venv/bin, as
+	# `ros2 run` finds them after `colcon build`.
+	$(PY) -m pip install --quiet --no-deps --no-build-isolation --editable .
 	touch $(STAMP)
 
 demo: $(STAMP)

@@ -23,7 +23,9 @@ EXECUTABLES = (
     'bag_play',
     'human_tracker',
 )
-IGNORE = shutil.ignore_patterns('.git', '.venv', 'out', 'build', 'install', 'log', '__pycache__', '.*_cache')
+IGNORE = shutil.ignore_patterns(
+    '.git', '.venv', 'out', 'build', 'install', 'log', '__pycache__', '.*_cache', '*.egg-info'
+)
 
 
 @pytest.fixture(scope='module')
@@ -108,5 +110,23 @@ def test_nodes_start_and_stop_cleanly(install_space: Path, name: str, tmp_path: 
         time.sleep(0.2)
     output = (tmp_path / 'node.log').read_text()
     assert 'ready' in output, output
+    process.send_signal(signal.SIGINT)
+    assert process.wait(20) == 0, (tmp_path / 'node.log').read_text()
+
+
+def test_every_executable_runs_by_name_from_the_virtualenv(tmp_path: Path) -> None:
+    """``make venv`` installs the checkout: each executable of setup.py is in the virtualenv's
+    bin, and a node started there takes ``--ros-args`` as ``ros2 run`` would give them."""
+    bin_folder = Path(sys.executable).parent
+    for name in EXECUTABLES:
+        assert (bin_folder / name).exists(), f'{name} is not in {bin_folder}: run `make venv`'
+    log = (tmp_path / 'node.log').open('w+')
+    command = [str(bin_folder / 'pipeline'), '--ros-args', '-p', 'motion_cue:=background', '-p', 'target:=hand']
+    process = subprocess.Popen(command, cwd=tmp_path, env=environment(), stdout=log, stderr=subprocess.STDOUT)
+    deadline = time.monotonic() + 60
+    while 'ready' not in (tmp_path / 'node.log').read_text() and process.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.2)
+    output = (tmp_path / 'node.log').read_text()
+    assert 'ready' in output and 'hand' in output, output
     process.send_signal(signal.SIGINT)
     assert process.wait(20) == 0, (tmp_path / 'node.log').read_text()

@@ -207,3 +207,21 @@ def test_a_mask_over_most_of_the_frame_is_set_aside() -> None:
     assert any(not np.array_equal(a.estimate.state, b.estimate.state) for a, b in zip(kept, without, strict=True))
     with pytest.raises(ValueError, match='max_motion_fraction'):
         TargetParameters(max_motion_fraction=0.0).validate()
+
+
+def test_the_face_detector_slows_down_when_it_finds_no_face() -> None:
+    """Every ``detect_every`` frames while faces are found; after PATIENT_SEARCHES runs in a row
+    found none (a person seen from behind), one run in four: on 100 faceless frames with
+    detect_every 5, runs 1-8 and then 12, 16 and 20 of the 20 slots."""
+    tracker = TargetTracker(head_and_shoulders(), TrackerParameters(seed=0), TargetParameters(detect_every=5))
+    if tracker.detector is None:
+        pytest.skip('dlib is not installed')
+    runs = []
+    detect, detect_near = tracker.detector.detect, tracker.detector.detect_near
+    tracker.detector.detect = lambda *a, **k: runs.append(tracker.frames) or detect(*a, **k)
+    tracker.detector.detect_near = lambda *a, **k: runs.append(tracker.frames) or detect_near(*a, **k)
+    noise = np.random.default_rng(0).integers(0, 256, (240, 320), dtype=np.uint8)
+    for _ in range(100):
+        tracker.process(noise)
+    slots = [5 * (k - 1) + 1 for k in (1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20)]
+    assert runs == slots

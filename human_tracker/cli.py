@@ -136,11 +136,11 @@ def _skin(options: argparse.Namespace) -> int:
 
     from human_tracker.io.frames import open_frames
     from human_tracker.vision.resolution import to_working, working_scale
-    from human_tracker.vision.skin import SkinModel, SkinSegmenter, default_skin_model, has_colour
+    from human_tracker.vision.skin import SkinModel, SkinParameters, SkinSegmenter, default_skin_model, has_colour
 
     source = open_frames(options.input)
     model = SkinModel.load(options.model) if options.model else default_skin_model()
-    segmenter = SkinSegmenter(model)
+    segmenter = SkinSegmenter(model, SkinParameters(regions=options.regions))
     options.out.mkdir(parents=True, exist_ok=True)
     written, unreadable, grey = 0, [], 0
     labelled = 0.0
@@ -264,6 +264,12 @@ def main(argv: list[str] | None = None) -> int:
     skin.add_argument('input', help='folder of images (masks keep their file stems) or video file')
     skin.add_argument('--out', type=Path, required=True, help='folder to write the masks to (255 = skin)')
     skin.add_argument('--model', type=Path, help='skin classes (JSON from train-skin; default: the shipped ones)')
+    skin.add_argument(
+        '--regions',
+        choices=('cells', 'pixels'),
+        default='cells',
+        help='phase 1: cells (the paper) or pixels (seed pixels grown by hysteresis: finds small skin regions)',
+    )
     skin.add_argument(
         '--working-width',
         type=int,

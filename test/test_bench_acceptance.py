@@ -23,7 +23,11 @@ def test_bars_are_applied_to_the_measured_figures() -> None:
             {'sequence': 'hand2', 'tracker': 'ours (background + skin)', 'precision_20px': 0.3},
             {'sequence': 'hand2', 'tracker': 'CSRT', 'precision_20px': 0.2},
         ],
-        'skin': [{'sequence': 'hgr', 'precision': 0.9, 'recall': 0.8, 'f1': 0.85}, {'sequence': 'x', 'recall': 0.1}],
+        'skin': [
+            {'sequence': 'hgr', 'method': 'cells', 'precision': 0.9, 'recall': 0.8, 'f1': 0.85},
+            {'sequence': 'hgr', 'method': 'pixels', 'precision': 0.85, 'recall': 0.91, 'f1': 0.88},
+            {'sequence': 'x', 'method': 'cells', 'recall': 0.1},
+        ],
     }
     verdicts = {row['check']: (row['measured'], row['bar'], row['met']) for row in _acceptance(results)}
     assert verdicts == {
@@ -43,7 +47,9 @@ def test_bars_are_applied_to_the_measured_figures() -> None:
         'trellis (ours): confident-wrong share <= 0.05': (0.1, 0.05, False),
         'trellis (ours, no box): confident-wrong share <= 0.05': (0.0, 0.05, True),
         'hand2 (ours): confident-wrong share <= 0.05': (0.0, 0.05, True),
-        'hgr: skin F1 >= 0.92': (0.85, 0.92, False),
-        'hgr: skin recall >= 0.9': (0.8, 0.9, False),
+        'hgr, cells: skin F1 >= 0.92': (0.85, 0.92, False),
+        'hgr, cells: skin recall >= 0.9': (0.8, 0.9, False),
+        'hgr, pixels: skin F1 >= 0.92': (0.88, 0.92, False),
+        'hgr, pixels: skin recall >= 0.9': (0.91, 0.9, True),
     }
     assert _acceptance({}) == []

@@ -234,6 +234,7 @@ def test_params_file_loads_and_gains_change_at_run_time(tmp_path) -> None:
         ('tracker_node', 'interior_weight:=0.5', 'interior_weight'),
         ('skin_node', 'model_file:=/nonexistent/skin.json', 'cannot load skin model'),
         ('skin_node', 'cell_size:=1', 'cell_size'),
+        ('skin_node', 'regions:=blobs', 'regions must be one of'),
     ],
 )
 def test_nonsense_parameters_at_start_are_refused(tmp_path, node: str, parameter: str, reason: str) -> None:

@@ -26,6 +26,9 @@ from human_tracker.vision.skin import SkinModel, SkinParameters, SkinSegmenter, 
 __all__ = ['SKIN_PARAMETERS', 'SkinNode', 'main']
 
 SKIN_PARAMETERS = (
+    ParameterSpec('regions', 'Phase 1: cells (the paper) or pixels (seed pixels grown by hysteresis: small regions).'),
+    ParameterSpec('seed_scale', 'regions: pixels: seeds lie within this many match distances of a class.', 0.01, 100.0),
+    ParameterSpec('grow_scale', 'regions: pixels: regions grow through pixels within this many.', 0.01, 100.0),
     ParameterSpec('cell_size', 'Side of the square cells of the first partition, pixels.', 2, 256),
     ParameterSpec('min_region_cells', 'Smallest merged region of candidate cells that is kept, cells.', 1, 100000),
     ParameterSpec('histogram_bins', 'Bins of each local I1, I2, I3 histogram.', 4, 1024),

@@ -600,16 +600,15 @@ def segment_skin(
         # to judge their borders too lost recall and gained no precision).
         labels, _ = hysteresis_regions(image, model, p.seed_scale, p.grow_scale)
         return (labels > 0).astype(np.uint8) * 255
-    else:
-        cells, count = merge_cells(candidate_cells(image, model, p.cell_size, p.match_scale), p.min_region_cells)
-        if count == 0:
-            return np.zeros((height, width), dtype=np.uint8)
-        # Each region grows by one cell (the dilation keeps the larger label where two meet) so
-        # that pixels of skin in cells that were mostly background are looked at too.
-        grown = cv2.dilate(cells.astype(np.uint16), np.ones((3, 3), np.uint8))
-        region = np.zeros((height, width), dtype=np.uint16)
-        extent = (cells.shape[1] * p.cell_size, cells.shape[0] * p.cell_size)
-        region[: extent[1], : extent[0]] = cv2.resize(grown, extent, interpolation=cv2.INTER_NEAREST)
+    cells, count = merge_cells(candidate_cells(image, model, p.cell_size, p.match_scale), p.min_region_cells)
+    if count == 0:
+        return np.zeros((height, width), dtype=np.uint8)
+    # Each region grows by one cell (the dilation keeps the larger label where two meet) so
+    # that pixels of skin in cells that were mostly background are looked at too.
+    grown = cv2.dilate(cells.astype(np.uint16), np.ones((3, 3), np.uint8))
+    region = np.zeros((height, width), dtype=np.uint16)
+    extent = (cells.shape[1] * p.cell_size, cells.shape[0] * p.cell_size)
+    region[: extent[1], : extent[0]] = cv2.resize(grown, extent, interpolation=cv2.INTER_NEAREST)
     histograms = _region_histograms(image, region, count, p.histogram_bins).reshape(count * 3, -1)
     lookup = _row_modes(histograms, p.histogram_smoothing, p.peak_fraction, p.support_fraction, p.max_peaks)
     lookup = lookup.reshape(count, 3, -1)

@@ -20,8 +20,9 @@ from human_tracker.vision.appearance import (
 from human_tracker.vision.boxes import BoxRelation
 from human_tracker.vision.faces import Detection, FaceDetector, face_detector_available
 from human_tracker.vision.proposals import draw_with_proposals, log_prior_density, log_proposal_density
-from human_tracker.vision.target import TargetParameters, TargetTracker
+from human_tracker.vision.target import TRACKING, TargetParameters, TargetTracker
 from human_tracker.vision.templates import head_and_shoulders
+from human_tracker.vision.tracker import TrackEstimate
 
 REAL = Path(__file__).resolve().parents[2] / 'shared' / 'data' / 'real'
 UNIT = BoxRelation((0.0, 0.0), (1.0, 1.0))  # the region is the box of side s centred on (x, y)
@@ -184,3 +185,36 @@ def test_faces_re_anchor_the_reported_box() -> None:
     np.testing.assert_allclose(tracker.box_relation.box(state), (111.0, 86.0, 36.0, 36.0))
     # Between detections the contour carries it: 10 px to the right.
     np.testing.assert_allclose(tracker.box_relation.box(state + [10.0, 0.0, 0.0, 0.0]), (121.0, 86.0, 36.0, 36.0))
+
+
+def test_an_automatic_start_reports_the_head_box_where_the_face_puts_it() -> None:
+    """Without a start box, the first face records the head box at FACE_ON_HEAD from it, not
+    wherever that frame's contour is. By hand: a 40 px face at (85, 90) is the face of the head
+    of scale 0.5 (40 / 0.8 + 40 / 0.8) = 50 centred at (105, 110 - 0.12 * 50) = (105, 104); its
+    box, (-0.5, -0.63, 1, 1.25) in template units, is centred at (105, 103.75), 50 x 62.5."""
+    tracker = TargetTracker(head_and_shoulders(), parameters=TargetParameters(proposals='off'))
+    tracker._anchor_on_face(Detection((85.0, 90.0, 40.0, 40.0), 1.0), np.array([90.0, 130.0, 70.0, 0.2]))
+    # In face widths from the face's centre (105, 110): (0, -6.25 / 40), size (50 / 40, 62.5 / 40).
+    np.testing.assert_allclose(tracker.face_relation.centre, (0.0, -0.15625))
+    np.testing.assert_allclose(tracker.face_relation.size, (1.25, 1.5625))
+
+
+def test_a_face_off_the_contour_restarts_only_a_target_found_by_itself() -> None:
+    """A target found by itself is a head by its face: a face elsewhere restarts it. One started
+    from a box keeps its contour unless the face looks more like the target (smaller D)."""
+    tracker = TargetTracker(head_and_shoulders(), parameters=TargetParameters(proposals='off'))
+    state = np.array([100.0, 100.0, 50.0, 0.0])
+    estimate = TrackEstimate(state, np.eye(4), 0.9, 0.9, 100.0, (75.0, 68.0, 50.0, 62.5), np.zeros((1, 2)), 0.0, 0.3)
+    faces = np.array([[200.0, 100.0, 50.0, 0.0]])
+    tracker.status = TRACKING
+
+    def unlike(states: np.ndarray) -> np.ndarray:
+        return np.full(len(states), 0.4**2)  # D = 0.4, the estimate's 0.3
+
+    def alike(states: np.ndarray) -> np.ndarray:
+        return np.full(len(states), 0.2**2)
+
+    assert tracker._restart_on_face(faces, None, estimate, unlike) == 0
+    tracker.initialise_from_box((90.0, 95.0, 30.0, 30.0))
+    assert tracker._restart_on_face(faces, None, estimate, unlike) is None
+    assert tracker._restart_on_face(faces, None, estimate, alike) == 0

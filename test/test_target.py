@@ -225,3 +225,27 @@ def test_the_face_detector_slows_down_when_it_finds_no_face() -> None:
         tracker.process(noise)
     slots = [5 * (k - 1) + 1 for k in (1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20)]
     assert runs == slots
+
+
+def test_a_target_found_by_itself_looks_for_its_face_on_the_whole_frame_after_one_miss() -> None:
+    """Near the predicted face for three runs without it when the target was started from a box;
+    after one when it was found by itself (its face is what makes it a head)."""
+    tracker = TargetTracker(head_and_shoulders(), TrackerParameters(seed=0), TargetParameters())
+    if tracker.detector is None:
+        pytest.skip('dlib is not installed')
+    calls = []
+    tracker.detector.detect = lambda *a, **k: calls.append('frame') or []
+    tracker.detector.detect_near = lambda *a, **k: calls.append('near') or []
+    grey = np.zeros((240, 320), np.uint8)
+    tracker.filter.initialise(np.array([160.0, 120.0, 50.0, 0.0]))
+    tracker.status = 'TRACKING'
+    for misses in (0, 1, 2):
+        tracker.face_misses = misses
+        tracker._detect_faces(grey)
+    assert calls == ['near', 'frame', 'frame']
+    calls.clear()
+    tracker.initialise_from_box((135.0, 95.0, 50.0, 50.0))
+    for misses in (0, 1, 2, 3):
+        tracker.face_misses = misses
+        tracker._detect_faces(grey)
+    assert calls == ['near', 'near', 'near', 'frame']

@@ -362,6 +362,7 @@ class TargetTracker:
     last_face: tuple[float, float, float, float] | None = field(default=None, init=False)
     previous_frame: np.ndarray | None = field(default=None, init=False)
     start_box: tuple[float, float, float, float] | None = field(default=None, init=False)
+    started_from_box: bool = field(default=False, init=False)
     detector: FaceDetector | None = field(default=None, init=False)
     frames: int = field(default=0, init=False)
 
@@ -408,6 +409,7 @@ class TargetTracker:
         self.box_relation = BoxRelation.of(box, state)  # until the contour settles on the next frame
         self.face_relation = None
         self.start_box = tuple(float(v) for v in box)  # type: ignore[assignment]
+        self.started_from_box = True
         self.appearance = None
         self.status = TRACKING
         self.weak_frames = 0
@@ -430,6 +432,7 @@ class TargetTracker:
         self.last_face = None
         self.previous_frame = None
         self.start_box = None
+        self.started_from_box = False
         self.frames = 0
 
     def initial_region(self, motion: np.ndarray | None, skin: np.ndarray | None) -> np.ndarray | None:
@@ -702,9 +705,11 @@ class TargetTracker:
         """Faces for the head's proposals: near the predicted face while the target is tracked;
         on the whole frame while it is not, or after ``SEARCH_AFTER_MISSES`` runs in a row found
         no face on it (a contour on clutter finds no face near itself), or, for a face last seen
-        too small for that, around where it was."""
+        too small for that, around where it was. A target found by itself (not started from a
+        box) is a head by its face, so for it one run without its face is enough."""
         tracked = self.status == TRACKING and self.filter.particles is not None and self.weak_frames == 0
-        if tracked and self.face_misses < SEARCH_AFTER_MISSES:
+        patience = SEARCH_AFTER_MISSES if self.started_from_box else 1
+        if tracked and self.face_misses < patience:
             predicted = self.filter.particles.mean(axis=0)
             return self.detector.detect_near(grey, FACE_ON_HEAD.box(predicted))
         self.face_misses = 0
@@ -751,8 +756,13 @@ class TargetTracker:
         x, y, w, h = face.box
         face_state = np.array([x + w / 2, y + h / 2, w, 0.0])
         if self.face_relation is None:
-            relation = self.box_relation or self._own_region()
-            self.face_relation = BoxRelation.of(relation.box(state), face_state)
+            if self.box_relation is not None:
+                box = self.box_relation.box(state)
+            else:
+                # An automatic start reports the head box: where the face puts the head
+                # (FACE_ON_HEAD), not where this frame's contour happens to be.
+                box = self._own_region().box(FACE_ON_HEAD.state(face.box))
+            self.face_relation = BoxRelation.of(box, face_state)
         else:
             self.box_relation = BoxRelation.of(self.face_relation.box(face_state), state)
 
@@ -765,13 +775,19 @@ class TargetTracker:
     ) -> int | None:
         """Which detection (index into ``states``) restarts the filter, or None.
 
-        The best one when there is no target or the target is weak. While the target is
-        tracked without its face, a face that looks more like the target than the estimate
-        does (a contour that slid onto clutter, or shrank onto part of the head).
+        The best one when there is no target, when the target is weak, or when the target was
+        found by itself (not started from a box) and the face is not on it. While a target
+        started from a box is tracked without its face, a face that looks more like the target
+        than the estimate does (a contour that slid onto clutter, or shrank onto part of the head).
         """
         if self.status != TRACKING or self.weak_frames > 0 or estimate is None:
             return 0
-        if face is not None or appearance is None:
+        if face is not None:
+            return None
+        if not self.started_from_box:
+            # A target found by itself is a head by its face: without its face, this one is.
+            return 0
+        if appearance is None:
             return None
         distances = np.sqrt(appearance(states))
         k = int(np.argmin(distances))

@@ -213,7 +213,8 @@ def _acceptance(results: dict[str, object]) -> list[dict[str, object]]:
         # Mean over the runs: one seed of ours, or one draw of MIL, is luck on a hard sequence.
         scores.setdefault(sequence, {})[name] = float(row.get('precision_20px_mean', row['precision_20px']))
         if name.startswith('ours'):
-            wrong[f'{sequence} ({name})'] = float(row.get('confident_wrong', 0.0))
+            # The worst run: a robot is told where a person is, wrongly, whichever seed it drew.
+            wrong[f'{sequence} ({name})'] = float(row.get('confident_wrong_max', row.get('confident_wrong', 0.0)))
     for sequence, by in scores.items():
         rivals = [by[name] for name in ('CamShift', 'MIL', 'KCF') if name in by]
         check(f'{sequence}: mean precision at 20 px >= CamShift, MIL, KCF', by['ours'], max(rivals, default=0.0))
@@ -226,7 +227,7 @@ def _acceptance(results: dict[str, object]) -> list[dict[str, object]]:
         check('hand2: mean precision at 20 px >= 0.6', scores['hand2']['ours'], 0.6)
         check('hand2: mean precision at 20 px >= CSRT', scores['hand2']['ours'], scores['hand2'].get('CSRT', 0.0))
     for name, share in wrong.items():
-        check(f'{name}: confident-wrong share <= 0.05', share, 0.05, at_most=True)
+        check(f'{name}: confident-wrong share, worst run <= 0.05', share, 0.05, at_most=True)
     for row in results.get('skin', []):  # type: ignore[union-attr]
         if 'f1' in row:
             name = f'{row["sequence"]}, {row["method"]}'
@@ -365,9 +366,10 @@ def main(argv: list[str] | None = None) -> int:
         results['accuracy'] = _accuracy(sequences, contrib)
         columns = ['sequence', 'tracker', 'precision_20px', 'success_auc', 'mean_centre_error_px', 'confident_wrong']
         columns += ['ms_per_frame']
-        columns += ['runs', 'precision_20px_mean', 'precision_20px_min', 'precision_20px_max']
+        columns += ['runs', 'precision_20px_mean', 'precision_20px_min', 'precision_20px_max', 'confident_wrong_max']
         report += [
-            '## accuracy (same frames, same first box; figures of the first run, precision over all runs)\n',
+            '## accuracy (same frames, same first box; figures of the first run; precision and the worst'
+            ' confident-wrong share over all runs)\n',
             _table(results['accuracy'], columns),
         ]
         results['skin'] = _skin(options.real_data)

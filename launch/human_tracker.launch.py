@@ -3,16 +3,21 @@
 ros2 launch human_tracker human_tracker.launch.py image:=/camera/color/image_raw
     [camera_info:=/camera/color/camera_info] [namespace:=head_tracker] [target:=head|hand]
     [params_file:=/path/to/human_tracker.yaml] [single_process:=true]
+    [rviz:=true] [camera_frame:=camera_color_optical_frame]
 
-With ``target:=hand`` the skin stage runs too (in process, or as ``skin_node``).
+With ``target:=hand`` the skin stage runs too (in process, or as ``skin_node``). With
+``rviz:=true`` RViz opens the package's view (``config/human_tracker.rviz``: the target's
+contour and label, the annotated frame) in the nodes' namespace, fixed on ``camera_frame``,
+the image's optical frame; where rviz2 is not installed, the launch says so and goes on.
 """
 
 from __future__ import annotations
 
 import os
+import shutil
 
-from ament_index_python.packages import get_package_share_directory
-from launch.actions import DeclareLaunchArgument, SetEnvironmentVariable
+from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
+from launch.actions import DeclareLaunchArgument, LogInfo, SetEnvironmentVariable
 from launch.conditions import IfCondition, UnlessCondition
 from launch.substitutions import LaunchConfiguration, PythonExpression
 from launch_ros.actions import Node
@@ -21,6 +26,14 @@ from launch_ros.parameter_descriptions import ParameterValue
 from launch import LaunchDescription
 
 PROFILE_VARIABLE = 'FASTRTPS_DEFAULT_PROFILES_FILE'
+
+
+def _rviz_installed() -> bool:
+    try:
+        get_package_share_directory('rviz2')
+    except PackageNotFoundError:
+        return shutil.which('rviz2') is not None
+    return True
 
 
 def generate_launch_description() -> LaunchDescription:
@@ -41,6 +54,25 @@ def generate_launch_description() -> LaunchDescription:
         'remappings': remappings,
         'output': 'screen',
     }
+    rviz = LaunchConfiguration('rviz')
+    if _rviz_installed():
+        viewer = Node(
+            package='rviz2',
+            executable='rviz2',
+            namespace=LaunchConfiguration('namespace'),
+            arguments=[
+                '-d',
+                os.path.join(share, 'config', 'human_tracker.rviz'),
+                '-f',
+                LaunchConfiguration('camera_frame'),
+            ],
+            condition=IfCondition(rviz),
+            output='screen',
+        )
+    else:
+        viewer = LogInfo(
+            msg='rviz:=true but rviz2 is not installed (apt install ros-jazzy-rviz2)', condition=IfCondition(rviz)
+        )
     return LaunchDescription(
         [
             DeclareLaunchArgument('image', default_value='/camera/image_raw', description='camera image topic'),
@@ -54,6 +86,10 @@ def generate_launch_description() -> LaunchDescription:
             DeclareLaunchArgument('target', default_value='head', description='head or hand'),
             DeclareLaunchArgument(
                 'single_process', default_value='true', description='one process (pipeline) or one per node'
+            ),
+            DeclareLaunchArgument('rviz', default_value='false', description='open RViz on the tracker (if installed)'),
+            DeclareLaunchArgument(
+                'camera_frame', default_value='camera_optical_frame', description="the image's optical frame (RViz)"
             ),
             # Camera frames between processes need a larger shared-memory segment than the
             # default; a profile the user already chose is kept.
@@ -87,5 +123,6 @@ def generate_launch_description() -> LaunchDescription:
                     ],
                 },
             ),
+            viewer,
         ]
     )

@@ -21,10 +21,10 @@ def environment() -> dict[str, str]:
 
 
 @contextmanager
-def collecting() -> Iterator[tuple[PoseCollector, SingleThreadedExecutor]]:
-    """rclpy up, a PoseCollector spun by its own executor; everything torn down after."""
+def collecting(*, markers: bool = False) -> Iterator[tuple[PoseCollector, SingleThreadedExecutor]]:
+    """rclpy up, a PoseCollector spun by its own executor (with ``markers``: those too); everything torn down after."""
     rclpy.init()
-    collector = PoseCollector()
+    collector = PoseCollector(markers=markers)
     executor = SingleThreadedExecutor()
     executor.add_node(collector)
     try:
@@ -43,12 +43,14 @@ def replay_and_collect(
     expected: int,
     rate: float = 2.0,
     diagnostics_of: str = '',
+    markers: bool = False,
 ) -> PoseCollector:
     """Start ``nodes``, replay ``bag`` into them, return what was published (all frames or 20 s).
 
     Every node must subscribe to the camera topic; the replay starts when each has said it
     is ready. With ``diagnostics_of``, ``expected`` is the
-    number of frames that node must report processed in /diagnostics (instead of poses).
+    number of frames that node must report processed in /diagnostics (instead of poses). With
+    ``markers``, the RViz markers are collected too (and awaited as the poses are).
     """
     nodes = nodes if isinstance(nodes, list) else [nodes]
     ready = [node.ready_node for node in nodes if node.ready_node]
@@ -67,7 +69,7 @@ def replay_and_collect(
         environment(),
         tmp / 'bag_play.log',
     )
-    with collecting() as (collector, executor):
+    with collecting(markers=markers) as (collector, executor):
         try:
             for node in nodes:
                 node.start()
@@ -82,7 +84,7 @@ def replay_and_collect(
                 if diagnostics_of:
                     done = collector.diagnostics.get(diagnostics_of, {}).get('frames_processed') == str(expected)
                 else:
-                    done = len(collector.poses) >= expected
+                    done = len(collector.poses) >= expected and (not markers or len(collector.markers) >= expected)
                 if done:
                     break
                 executor.spin_once(timeout_sec=0.05)

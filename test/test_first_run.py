@@ -294,6 +294,30 @@ def test_the_launch_file_keeps_a_fast_dds_profile_the_user_chose() -> None:
     assert value.startswith('os.environ.get(PROFILE_VARIABLE) or'), value
 
 
+def test_the_launch_file_opens_the_shipped_rviz_view_when_asked() -> None:
+    """``rviz:=true`` runs rviz2 on config/human_tracker.rviz, fixed on ``camera_frame``; off by default."""
+    source = (REPO / 'launch' / 'human_tracker.launch.py').read_text()
+    tree = ast.parse(source)
+    declared = {
+        n.args[0].value: n
+        for n in ast.walk(tree)
+        if isinstance(n, ast.Call) and getattr(n.func, 'id', '') == 'DeclareLaunchArgument'
+    }
+    assert {'rviz', 'camera_frame'} <= set(declared)
+    assert ast.literal_eval(next(k.value for k in declared['rviz'].keywords if k.arg == 'default_value')) == 'false'
+    rviz2 = [
+        n
+        for n in ast.walk(tree)
+        if isinstance(n, ast.Call)
+        and getattr(n.func, 'id', '') == 'Node'
+        and any(k.arg == 'executable' and ast.literal_eval(k.value) == 'rviz2' for k in n.keywords)
+    ]
+    assert len(rviz2) == 1
+    arguments = ast.unparse(next(k.value for k in rviz2[0].keywords if k.arg == 'arguments'))
+    assert "'human_tracker.rviz'" in arguments and "LaunchConfiguration('camera_frame')" in arguments
+    assert ast.unparse(next(k.value for k in rviz2[0].keywords if k.arg == 'condition')) == 'IfCondition(rviz)'
+
+
 # Offline command ----------------------------------------------------------------------------------
 
 

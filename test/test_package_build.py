@@ -78,6 +78,7 @@ def test_share_files_and_scripts_are_installed(install_space: Path) -> None:
         'config/human_tracker.yaml',
         'config/hand_tracker.yaml',
         'config/fastdds_large_shm.xml',
+        'config/human_tracker.rviz',
     ):
         assert (share / 'human_tracker' / name).exists(), name
     for name in EXECUTABLES:

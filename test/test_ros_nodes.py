@@ -65,6 +65,29 @@ def test_bag_play_and_tracker_node_in_separate_processes(head_bag, tmp_path) -> 
     assert np.all(np.diag(covariance) > 0)
 
 
+def test_markers_for_rviz_follow_the_contour_at_the_pose_depth(head_bag, tmp_path) -> None:
+    """pipeline -> ``markers``: for every frame a closed line strip in the optical frame at the
+    pose's depth that projects back onto the published contour, and a label above it."""
+    frames = list(read_frames(head_bag))
+    args = node_arguments(COMPRESSED_CAMERA_TOPIC, True, frames[0].ground_truth)
+    pipeline = NodeProcess('human_tracker.ros.pipeline', args, environment(), tmp_path / 'pipeline.log')
+    collector = replay_and_collect(pipeline, head_bag, COMPRESSED_CAMERA_TOPIC, tmp_path, len(frames), markers=True)
+    assert sorted(collector.markers) == sorted(collector.poses) == [f.stamp_ns for f in frames]
+    k = default_camera_matrix(640, 480)
+    for stamp, array in collector.markers.items():
+        strip, label = array.markers
+        assert {strip.header.frame_id, label.header.frame_id} == {'camera_optical_frame'}
+        assert (strip.ns, strip.id, strip.type, label.id, label.type) == ('human_tracker/head', 0, 4, 1, 9)
+        assert label.text == 'head 0 TRACKING' and label.scale.z > 0 and strip.scale.x > 0
+        assert strip.color.a == label.color.a == 1.0 and strip.lifetime.nanosec > 0
+        points = np.array([[p.x, p.y, p.z] for p in strip.points])
+        np.testing.assert_allclose(points[0], points[-1])  # closed
+        np.testing.assert_allclose(points[:, 2], collector.poses[stamp].pose.pose.position.z)
+        pixels = (k @ (points[:-1] / points[:-1, 2:]).T).T[:, :2]
+        np.testing.assert_allclose(pixels, collector.contours[stamp], atol=1e-3)
+        assert label.pose.position.y < points[:, 1].min()  # above the contour: y points down
+
+
 def test_pipeline_on_raw_640x480_frames(tmp_path) -> None:
     """Raw bgr8 frames of 900 KB between processes (needs the 16 MB shared-memory profile)."""
     spec = dataclasses.replace(SCENES['head_basic'], name='raw', num_frames=30)

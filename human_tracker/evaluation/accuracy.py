@@ -51,7 +51,8 @@ def _contrib(name: str, folder: Path, init: Box, contrib_python: Path) -> tuple[
 
 
 def _row(tracker: str, runs: list[tuple[list[Box | None], float]], scored: list[Box | None]) -> dict[str, object]:
-    """The first run's scores and ms per frame, and the precision's mean, min and max over ``runs``."""
+    """The first run's scores and ms per frame, the precision's mean, min and max over ``runs``, and
+    the largest confident-wrong share of any run."""
     summaries = [summarise(boxes, scored) for boxes, _ in runs]
     precisions = [summary['precision_20px'] for summary in summaries]
     return {
@@ -62,6 +63,7 @@ def _row(tracker: str, runs: list[tuple[list[Box | None], float]], scored: list[
         'precision_20px_mean': round(sum(precisions) / len(precisions), 3),
         'precision_20px_min': round(min(precisions), 3),
         'precision_20px_max': round(max(precisions), 3),
+        'confident_wrong_max': max(summary['confident_wrong'] for summary in summaries),
     }
 
 

@@ -10,6 +10,7 @@ from geometry_msgs.msg import PolygonStamped, PoseWithCovarianceStamped
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from visualization_msgs.msg import MarkerArray
 
 from human_tracker.io.images import stamp_ns
 
@@ -21,10 +22,11 @@ _KEEP_ALL = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE, histo
 class PoseCollector(Node):
     """Subscribes ``pose`` and ``contour`` (reliable, deep queue) and stores them by stamp.
 
-    It also keeps the latest ``/diagnostics`` values of every node, by status name.
+    It also keeps the latest ``/diagnostics`` values of every node, by status name, and with
+    ``markers`` the ``markers`` arrays by stamp (a subscriber makes the tracker publish them).
     """
 
-    def __init__(self, namespace: str = '') -> None:
+    def __init__(self, namespace: str = '', *, markers: bool = False) -> None:
         super().__init__('pose_collector', namespace=namespace)
         self.poses: dict[int, PoseWithCovarianceStamped] = {}
         self.contours: dict[int, np.ndarray] = {}
@@ -33,6 +35,9 @@ class PoseCollector(Node):
         self.create_subscription(PoseWithCovarianceStamped, 'pose', self._on_pose, _KEEP_ALL)
         self.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics, _KEEP_ALL)
         self.create_subscription(PolygonStamped, 'contour', self._on_contour, _KEEP_ALL)
+        self.markers: dict[int, MarkerArray] = {}
+        if markers:
+            self.create_subscription(MarkerArray, 'markers', self._on_markers, _KEEP_ALL)
 
     def _on_pose(self, msg: PoseWithCovarianceStamped) -> None:
         self.poses[stamp_ns(msg.header)] = msg
@@ -49,6 +54,10 @@ class PoseCollector(Node):
         while name not in self.diagnostics and time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.05)
         return self.diagnostics.get(name, {})
+
+    def _on_markers(self, msg: MarkerArray) -> None:
+        if msg.markers:
+            self.markers[stamp_ns(msg.markers[0].header)] = msg
 
     def _on_contour(self, msg: PolygonStamped) -> None:
         self.contours[stamp_ns(msg.header)] = np.array([[p.x, p.y] for p in msg.polygon.points], dtype=np.float64)

@@ -4,7 +4,9 @@ Subscribes ``image`` (or ``image/compressed``), ``camera_info`` and, with
 ``motion_input: foreground`` or ``motion``, that mask topic, and with ``skin_input: true``
 the ``skin`` labels, each matched to the image by exact stamp. Publishes ``pose``
 (PoseWithCovarianceStamped, metres, optical frame) and ``contour`` (PolygonStamped, pixels)
-while the target is tracked, ``debug_image`` (only when subscribed) and ``/diagnostics``.
+while the target is tracked, ``markers`` (MarkerArray for RViz: the contour at the target's
+depth and a label, while the filter has an estimate) and ``debug_image`` (each only when
+subscribed), and ``/diagnostics``.
 Every output copies the header of the image it was computed from.
 """
 
@@ -19,10 +21,12 @@ import numpy as np
 from geometry_msgs.msg import Point32, PolygonStamped, PoseWithCovarianceStamped
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image
+from visualization_msgs.msg import MarkerArray
 
 from human_tracker.drawing import annotate
 from human_tracker.ros.common import RESULT_QOS, WORKING_WIDTH_DESCRIPTION, declare
 from human_tracker.ros.image_conversion import ImageConversionError, array_to_image, image_to_array
+from human_tracker.ros.markers import cleared_markers, target_markers
 from human_tracker.ros.stage import DEFERRED, ImageStage, ParameterSpec, spin_node, stamp_ns
 from human_tracker.vision.camera import metric_positions
 from human_tracker.vision.resolution import same_frame
@@ -165,6 +169,7 @@ class TrackerNode(ImageStage):
             self, 'num_points', 48, 'N, measurement points along the spline (§2.3).', low=4, high=1024, read_only=True
         )
         self.template = make_template(target, num_points, template_file)
+        self.target = target
         filter_parameters = self.bind_parameters(TrackerParameters(), FILTER_PARAMETERS, self._apply_filter)
         target_parameters = self.bind_parameters(parameters_for(target), TARGET_PARAMETERS, self._apply_target)
         self.tracker = TargetTracker(self.template, filter_parameters, target_parameters)
@@ -231,6 +236,8 @@ class TrackerNode(ImageStage):
         self.pose_pub = self.create_publisher(PoseWithCovarianceStamped, 'pose', RESULT_QOS)
         self.contour_pub = self.create_publisher(PolygonStamped, 'contour', RESULT_QOS)
         self.debug_pub = self.create_publisher(Image, 'debug_image', RESULT_QOS)
+        self.markers_pub = self.create_publisher(MarkerArray, 'markers', RESULT_QOS)
+        self.markers_shown = False
         self.use_camera_info()
         # The mask topics each frame waits for; a pipeline hands the masks over with the frames.
         topics = [self.motion_input] if self.motion_input != 'none' else []
@@ -400,6 +407,8 @@ class TrackerNode(ImageStage):
         self.counters.processed += 1
         if result.tracking:
             self._publish(result, header, size)
+        if self.markers_pub.get_subscription_count() > 0:
+            self._publish_markers(result, header, size)
         if self.debug_pub.get_subscription_count() > 0:
             estimate = result.estimate
             label = (
@@ -457,6 +466,20 @@ class TrackerNode(ImageStage):
         contour.header = header
         contour.polygon.points = [Point32(x=float(x), y=float(y), z=0.0) for x, y in estimate.contour]
         self.contour_pub.publish(contour)
+
+    def _publish_markers(self, result: TargetResult, header: Any, shape: tuple[int, ...]) -> None:
+        """The target's contour and label for RViz while the filter has an estimate; cleared once when it has none."""
+        estimate = result.estimate
+        if estimate is None:
+            if self.markers_shown:
+                self.markers_pub.publish(cleared_markers(header))
+                self.markers_shown = False
+            return
+        k = self.intrinsics(shape[1], shape[0])
+        depth = float(metric_positions(estimate.state, self.template, k, self.target_width)[2])
+        markers = target_markers(header, estimate.contour, depth, k, kind=self.target, ident=0, status=result.status)
+        self.markers_pub.publish(markers)
+        self.markers_shown = True
 
     def diagnostics_state(self) -> tuple[str, dict[str, Any]]:
         extra: dict[str, Any] = {

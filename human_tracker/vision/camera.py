@@ -13,7 +13,7 @@ import numpy as np
 
 from human_tracker.vision.templates import ContourTemplate
 
-__all__ = ['DEFAULT_HORIZONTAL_FOV', 'default_camera_matrix', 'metric_positions']
+__all__ = ['DEFAULT_HORIZONTAL_FOV', 'back_project', 'default_camera_matrix', 'metric_positions']
 
 DEFAULT_HORIZONTAL_FOV = np.deg2rad(60.0)
 """Field of view assumed when no camera_info arrives: 60°, typical of a robot's RGB camera."""
@@ -50,8 +50,19 @@ def metric_positions(
     cos, sin = np.cos(states[:, 3]), np.sin(states[:, 3])
     u = states[:, 0] + states[:, 2] * (cos * centre[0] - sin * centre[1])
     v = states[:, 1] + states[:, 2] * (sin * centre[0] + cos * centre[1])
+    depth = camera_matrix[0, 0] * target_width / np.maximum(states[:, 2] * rw, 1e-6)
+    positions = back_project(np.stack([u, v], axis=1), depth, camera_matrix)
+    return positions[0] if single else positions
+
+
+def back_project(pixels: np.ndarray, depth: float | np.ndarray, camera_matrix: np.ndarray) -> np.ndarray:
+    """Optical-frame points (metres) of ``pixels`` ``(N, 2)`` (u, v) at ``depth`` Z (metres, scalar or ``(N,)``).
+
+    Returns:
+        ``(N, 3)`` X = (u - cx) Z / fx, Y = (v - cy) Z / fy, Z.
+    """
+    pixels = np.asarray(pixels, dtype=np.float64)
+    depth = np.broadcast_to(np.asarray(depth, dtype=np.float64), pixels.shape[:1])
     fx, fy = camera_matrix[0, 0], camera_matrix[1, 1]
     cx, cy = camera_matrix[0, 2], camera_matrix[1, 2]
-    depth = fx * target_width / np.maximum(states[:, 2] * rw, 1e-6)
-    positions = np.stack([(u - cx) * depth / fx, (v - cy) * depth / fy, depth], axis=1)
-    return positions[0] if single else positions
+    return np.stack([(pixels[:, 0] - cx) * depth / fx, (pixels[:, 1] - cy) * depth / fy, depth], axis=1)

@@ -11,7 +11,7 @@ export RMW_IMPLEMENTATION ?= rmw_fastrtps_cpp
 export FASTRTPS_DEFAULT_PROFILES_FILE ?= $(CURDIR)/config/fastdds_large_shm.xml
 export PYTHONHASHSEED := 0
 
-.PHONY: demo test bench soak lint bags docs clean venv
+.PHONY: demo test test-robot-stack bench soak lint bags docs clean venv
 
 venv: $(STAMP)
 
@@ -31,6 +31,21 @@ test: $(STAMP)
 	$(PY) -m ruff check human_tracker test launch setup.py
 	$(PY) -m pytest -q test
 
+# The tests again with a Jazzy robot's numpy 1.26 and OpenCV 4.6 (rosdep's versions) in .venv-robot;
+# the colcon build is left to `make test`. numba keeps its compiled kernels apart for these versions.
+ROBOT := .venv-robot
+$(ROBOT)/.installed-stamp: requirements.txt requirements-robot.txt setup.py
+	test -x $(ROBOT)/bin/python || $(PYTHON) -m venv $(ROBOT)
+	$(ROBOT)/bin/python -m pip install --quiet --upgrade "pip>=24"
+	grep -v -E '^(numpy|opencv-python-headless)==' requirements.txt > $(ROBOT)/requirements.txt
+	$(ROBOT)/bin/python -m pip install --quiet -r $(ROBOT)/requirements.txt -r requirements-robot.txt
+	$(ROBOT)/bin/python -m pip install --quiet --no-deps --no-build-isolation --editable .
+	touch $@
+
+test-robot-stack: $(ROBOT)/.installed-stamp
+	$(ROBOT)/bin/python -c "import cv2, numpy; print('robot stack: numpy', numpy.__version__, 'OpenCV', cv2.__version__)"
+	NUMBA_CACHE_DIR=$(CURDIR)/$(ROBOT)/numba-cache $(ROBOT)/bin/python -m pytest -q test --ignore=test/test_package_build.py
+
 lint: $(STAMP)
 	$(PY) -m ruff check human_tracker test launch setup.py
 
@@ -43,7 +58,7 @@ bags: $(STAMP)
 	$(PY) -m human_tracker.cli generate --all --out bags
 
 clean:
-	rm -rf $(VENV) .venv-contrib out build install log
+	rm -rf $(VENV) .venv-contrib $(ROBOT) out build install log
 
 # Speed lives here, never in timed tests: latency and throughput of the nodes over DDS.
 CONTRIB := .venv-contrib/.installed-stamp

@@ -24,7 +24,7 @@ EXECUTABLES = (
     'human_tracker',
 )
 IGNORE = shutil.ignore_patterns(
-    '.git', '.venv', 'out', 'build', 'install', 'log', '__pycache__', '.*_cache', '*.egg-info'
+    '.git', '.venv*', 'out', 'build', 'install', 'log', '__pycache__', '.*_cache', '*.egg-info'
 )
 
 

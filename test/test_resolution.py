@@ -33,6 +33,15 @@ def test_frames_wider_than_the_working_width_are_reduced_to_it() -> None:
     assert set(np.unique(to_working(labels, 320, mask=True))) <= {0, 255}
 
 
+def test_a_boolean_mask_is_reduced_by_nearest_neighbour_and_stays_boolean() -> None:
+    """OpenCV 4.6 (a robot's) refuses boolean arrays; the reduction takes every other pixel."""
+    mask = np.zeros((480, 640), dtype=bool)
+    mask[100:200, 300:400] = True
+    reduced = to_working(mask, 320, mask=True)
+    assert reduced.dtype == bool and reduced.shape == (240, 320)
+    np.testing.assert_array_equal(reduced, mask[::2, ::2])
+
+
 def test_lengths_in_pixels_scale_with_the_image() -> None:
     filter_parameters = TrackerParameters().scaled(0.5)
     assert filter_parameters.search_halfwidth == 6.0 and filter_parameters.min_scale == 12.0

@@ -57,5 +57,8 @@ def to_working(image: np.ndarray, working_width: int, *, mask: bool = False) -> 
     height, width = working_shape(image.shape, working_width)
     if (height, width) == image.shape[:2]:
         return image
+    if image.dtype == bool:
+        # OpenCV before 5 (a robot's 4.6) refuses boolean arrays: resize their bytes.
+        return cv2.resize(image.view(np.uint8), (width, height), interpolation=cv2.INTER_NEAREST).view(bool)
     interpolation = cv2.INTER_NEAREST if mask else cv2.INTER_AREA
     return cv2.resize(image, (width, height), interpolation=interpolation)

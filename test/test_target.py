@@ -249,3 +249,22 @@ def test_a_target_found_by_itself_looks_for_its_face_on_the_whole_frame_after_on
         tracker.face_misses = misses
         tracker._detect_faces(grey)
     assert calls == ['near', 'near', 'near', 'frame']
+
+
+@pytest.mark.parametrize(('proposals', 'comes_back'), [('off', True), ('faces', False)])
+def test_a_lost_head_comes_back_on_edges_alone_only_without_a_face_detector(proposals: str, comes_back: bool) -> None:
+    """With no region cue, a lost target whose contour fits again is TRACKING again after one
+    good frame, unless faces are its proposals: then only a face (or a moving region) brings
+    it back, an edge fit being what slid onto clutter. The synthetic head has no face."""
+    tracker = TargetTracker(head_and_shoulders(), TrackerParameters(seed=0), TargetParameters(proposals=proposals))
+    if proposals == 'faces' and tracker.detector is None:
+        pytest.skip('dlib is not installed')
+    frames = _frames('head_basic')
+    tracker.initialise_from_box(frames[0][0].ground_truth)
+    statuses = []
+    for index, (_, image) in enumerate(frames[:30]):
+        if index == 10:
+            tracker.mark_lost()
+        statuses.append(tracker.process(image).status)
+    assert statuses[:10] == ['TRACKING'] * 10
+    assert statuses[10:] == ['TRACKING' if comes_back else 'LOST'] * 20

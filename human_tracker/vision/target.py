@@ -21,8 +21,9 @@ a row, fewer than ``lost_confidence`` of the points find an edge, or (with
 test suits the background cue, where a person who stands still is still foreground; with
 optical flow a still person does not move, so it stays off there. A lost target comes back
 through a motion hypothesis when a mask is given (the filter's own fit on clutter is no
-evidence of the person), when the edges fit again when there is no mask, and, with skin
-labels, after ``lost_frames`` frames in a row that are not weak.
+evidence of the person), when the edges fit again when there is no mask (unless faces are the
+proposals: then through a face), and, with skin labels, after ``lost_frames`` frames in a
+row that are not weak.
 
 Skin labels (§3.2) enter in one of the paper's two ways (``colour_mode``): the colour term
 γ_colour in the likelihood (``weighted``), or as the area the template is fitted in
@@ -623,13 +624,15 @@ class TargetTracker:
         if self.weak_frames >= p.lost_frames:
             self.status = LOST
         elif self.status == LOST and (
-            (self.weak_frames == 0 and region is None)
+            (self.weak_frames == 0 and region is None and not (p.proposals == 'faces' and self.detector is not None))
             or (likelihood_skin is not None and self.steady_frames >= p.lost_frames)
         ):
-            # Without a region cue the edge fit is the only evidence; with one, a lost target
-            # comes back through a hypothesis (an edge fit on clutter is not the person), or
-            # after as many steady frames as made it lost when skin under the contour says so
-            # (skin labels flicker off a hand for a few frames).
+            # Without a region cue the edge fit is the only evidence, unless faces are the
+            # proposals (a lost head comes back through one: on a panning camera the edge fit
+            # held a trellis); with a region, a lost target comes back through a hypothesis (an
+            # edge fit on clutter is not the person), or after as many steady frames as made it
+            # lost when skin under the contour says so (skin labels flicker off a hand for a
+            # few frames).
             self.status = TRACKING
         return TargetResult(self.status, estimate, initialised, set_aside, shown)
 

@@ -12,11 +12,12 @@ from human_tracker.evaluation.metrics import centre_errors, summarise
 from human_tracker.io.bags import read_frames
 from human_tracker.ros.image_conversion import message_to_bgr8, to_mono8
 from human_tracker.vision.background import BackgroundModel
+from human_tracker.vision.faces import FACE_ON_HEAD, Detection
 from human_tracker.vision.optical_flow import OpticalFlow
-from human_tracker.vision.resolution import to_working
-from human_tracker.vision.target import TargetParameters, TargetTracker
+from human_tracker.vision.resolution import to_working, working_scale
+from human_tracker.vision.target import FACELESS_RUNS, TargetParameters, TargetTracker
 from human_tracker.vision.templates import head_and_shoulders
-from human_tracker.vision.tracker import TrackerParameters
+from human_tracker.vision.tracker import TrackerParameters, state_from_box
 
 BAGS = REPO / 'bags'
 _FRAMES: dict[str, list] = {}
@@ -268,3 +269,83 @@ def test_a_lost_head_comes_back_on_edges_alone_only_without_a_face_detector(prop
         statuses.append(tracker.process(image).status)
     assert statuses[:10] == ['TRACKING'] * 10
     assert statuses[10:] == ['TRACKING' if comes_back else 'LOST'] * 20
+
+
+def _face_on_box(box: tuple[float, float, float, float], image: np.ndarray) -> Detection:
+    """The face the detector would return (working pixels) on a head whose box is ``box`` (camera pixels)."""
+    scale = working_scale(image.shape[1], TargetParameters().working_width)
+    face = FACE_ON_HEAD.box(state_from_box(box, head_and_shoulders()))
+    return Detection(tuple(v * scale for v in face), 1.0)
+
+
+def _face_tracker(found: list[list]) -> TargetTracker:
+    """A head tracker whose detector returns the next list of ``found`` on each run (the last
+    one for good): the synthetic head has no face for dlib to find."""
+    tracker = TargetTracker(head_and_shoulders(), TrackerParameters(seed=0), TargetParameters(detect_every=5))
+    if tracker.detector is None:
+        pytest.skip('dlib is not installed')
+    runs = iter(found)
+
+    def detect(*args: object, **kwargs: object) -> list:
+        return next(runs, found[-1])
+
+    tracker.detector.detect = tracker.detector.detect_near = detect
+    return tracker
+
+
+def test_a_face_on_the_start_frame_relates_the_given_box_to_it() -> None:
+    """A face found on the frame a box is given on records how that very box sits on the face:
+    the same face five frames later gives back the box as given, whatever the contour's own
+    estimate did on the first frame."""
+    (frame, image), *_ = _frames('head_basic')
+    given = frame.ground_truth
+    face = _face_on_box(given, image)
+    tracker = _face_tracker([[face]])
+    tracker.initialise_from_box(given)
+    results = [tracker.process(image) for _ in range(6)]
+    assert results[0].detections and results[5].detections
+    assert not np.allclose(results[0].estimate.box, given, atol=0.5)
+    assert results[5].status == 'TRACKING'
+    np.testing.assert_allclose(results[5].estimate.box, given, atol=1e-6)
+
+
+def test_a_head_without_its_face_and_without_motion_becomes_lost() -> None:
+    """With no moving region to say where the person is, a head whose face was seen is weak
+    after FACELESS_RUNS detector runs in a row without it, LOST ``lost_frames`` frames later,
+    and TRACKING again once its face is back."""
+    (frame, image), *_ = _frames('head_basic')
+    face = _face_on_box(frame.ground_truth, image)
+    tracker = _face_tracker([[face]] + [[]] * FACELESS_RUNS + [[face]])
+    tracker.initialise_from_box(frame.ground_truth)
+    statuses = [tracker.process(image).status for _ in range(5 * (FACELESS_RUNS + 1) + 1)]
+    weak_from = 5 * FACELESS_RUNS  # the frame of the FACELESS_RUNS-th run without the face
+    lost_at = weak_from + tracker.parameters.lost_frames - 1
+    assert statuses[:lost_at] == ['TRACKING'] * lost_at
+    assert statuses[lost_at:-1] == ['LOST'] * (len(statuses) - 1 - lost_at)
+    assert statuses[-1] == 'TRACKING'
+
+
+@pytest.mark.parametrize(('proposals', 'comes_back'), [('off', True), ('faces', False)])
+def test_a_head_whose_face_was_seen_comes_back_from_a_moving_region_only_with_its_face(
+    proposals: str, comes_back: bool
+) -> None:
+    """A moving region restarts a lost target's filter; a head whose face was seen is TRACKING
+    again only once a face is found on it (a moving region can be anyone, or a panning camera)."""
+    frames = _frames('head_basic')
+    face = _face_on_box(frames[0][0].ground_truth, frames[0][1])
+    tracker = (
+        _face_tracker([[face], []])
+        if proposals == 'faces'
+        else TargetTracker(head_and_shoulders(), TrackerParameters(seed=0), TargetParameters(proposals='off'))
+    )
+    background = BackgroundModel()
+    tracker.initialise_from_box(frames[0][0].ground_truth)
+    results = []
+    for index, (_, image) in enumerate(frames[:60]):
+        motion = background.apply(to_working(to_mono8(image), tracker.parameters.working_width))
+        if index == 10:
+            tracker.mark_lost()
+        results.append(tracker.process(image, motion))
+    assert proposals == 'off' or tracker.face_relation is not None
+    assert any(r.initialised for r in results[10:])  # the moving region restarted the filter
+    assert (results[-1].status == 'TRACKING') == comes_back

@@ -80,8 +80,10 @@ START_SCALES = tuple(np.round(np.linspace(1.0, 1.8, 9), 2))
 START_OFFSETS = (tuple(np.round(np.linspace(-0.3, 0.3, 7), 2)), tuple(np.round(np.linspace(-0.6, 0.3, 10), 2)))
 
 # A detected face belongs to the tracked head when its centre is within this many face widths
-# of where the contour puts the face, and its size within a factor 1.5 of that face's.
+# of where the contour puts the face, and its size within this factor of that face's: a
+# contour shrinking onto the face or the hair must still find its face (interview_alberto).
 FACE_MATCH_DISTANCE = 0.75
+FACE_MATCH_SIZE = 1.75
 # Detector runs near the track in a row that found no face on it before one searches the
 # whole frame.
 SEARCH_AFTER_MISSES = 3
@@ -93,6 +95,9 @@ SEARCH_REACH = 4.0
 # a whole-frame search costs 10-20 ms, and a robot often sees a person from behind, or a hand
 # and no face.
 PATIENT_SEARCHES = 8
+# Detector runs in a row without its face after which a head is weak when motion cannot
+# support it.
+FACELESS_RUNS = 6
 
 WAITING = 'WAITING'
 TRACKING = 'TRACKING'
@@ -360,6 +365,7 @@ class TargetTracker:
     face_relation: BoxRelation | None = field(default=None, init=False)
     face_misses: int = field(default=0, init=False)
     faceless_runs: int = field(default=0, init=False)
+    runs_without_own_face: int = field(default=0, init=False)
     last_face: tuple[float, float, float, float] | None = field(default=None, init=False)
     previous_frame: np.ndarray | None = field(default=None, init=False)
     start_box: tuple[float, float, float, float] | None = field(default=None, init=False)
@@ -430,6 +436,7 @@ class TargetTracker:
         self.face_relation = None
         self.face_misses = 0
         self.faceless_runs = 0
+        self.runs_without_own_face = 0
         self.last_face = None
         self.previous_frame = None
         self.start_box = None
@@ -543,6 +550,7 @@ class TargetTracker:
             # With the paper's likelihood the box fills the reference region as given: the grid
             # fit cost `david` 0.83 -> 0.63 there, while the fused likelihood gains from it.
             self._settle_on_start_box(edges, likelihood_motion, likelihood_skin, bins)
+        given_box = None if self.start_box is None else tuple(v * self.scale for v in self.start_box)
         self.start_box = None
         detections = self._detect(image)
         # Faces are the target's proposals, or (avoid_faces) what the hand is not.
@@ -578,6 +586,7 @@ class TargetTracker:
             face = detections[restart]
         if head_faces is not None and self.status == TRACKING:
             self.face_misses = 0 if face is not None else self.face_misses + 1
+            self.runs_without_own_face = 0 if face is not None else self.runs_without_own_face + 1
         found = None
         if region is not None and not initialised and self._may_switch(estimate):
             # The skin proposals' X_0 when they came from this region.
@@ -588,7 +597,10 @@ class TargetTracker:
             # from a region is coarse, and colours learnt there would hold the background.
             self.filter.initialise(found.state)
             estimate = self.filter.step(edges, likelihood_motion, likelihood_skin, appearance)
-            self.status, self.weak_frames, initialised = TRACKING, 0, True
+            self.weak_frames, initialised = 0, True
+            # A head whose face was seen is the head only once a face is found on it again.
+            faced = p.proposals == 'faces' and self.detector is not None and self.face_relation is not None
+            self.status = LOST if faced else TRACKING
         shown = tuple(tuple(v / self.scale for v in d.box) for d in detections or ())
         if estimate is None:
             return TargetResult(self.status, None, motion_set_aside=set_aside, detections=shown)
@@ -600,7 +612,7 @@ class TargetTracker:
             and _centre_within(estimate.box, _face_and_neck(self.last_face))
         )
         if face is not None and self.status == TRACKING:
-            self._anchor_on_face(face, working_state)
+            self._anchor_on_face(face, working_state, given_box)
             self.last_face = face.box
         estimate = self._to_camera(estimate)
         if self.box_relation is not None:
@@ -611,6 +623,10 @@ class TargetTracker:
         if motion is not None and estimate.motion_support < p.lost_motion_support:
             weak = True
         if likelihood_skin is not None and estimate.skin_support < p.lost_skin_support:
+            weak = True
+        if motion is None and self.face_relation is not None and self.runs_without_own_face >= FACELESS_RUNS:
+            # A head whose face was seen, without it for a while and with no moving region to
+            # say where the person is: the edge fit alone slides onto clutter (a panning camera).
             weak = True
         self.weak_frames = self.weak_frames + 1 if weak else 0
         self.steady_frames = 0 if weak else self.steady_frames + 1
@@ -746,7 +762,9 @@ class TargetTracker:
         self.face_misses += 1
         return found
 
-    def _anchor_on_face(self, face: Detection, state: np.ndarray) -> None:
+    def _anchor_on_face(
+        self, face: Detection, state: np.ndarray, given_box: tuple[float, float, float, float] | None = None
+    ) -> None:
         """Re-anchor the reported box on the face detected on the tracked head (working pixels).
 
         The box a track reports is a region of the contour (``box_relation``); the contour of a
@@ -754,12 +772,16 @@ class TargetTracker:
         its scale follows the hair and shoulders. A detected face does: the first face found
         on the head records how the reported box sits on it (``face_relation``, in units of
         the face's width), and each later one moves the reported box there and re-expresses
-        it on the contour, which carries it until the next detection.
+        it on the contour, which carries it until the next detection. A face found on the frame
+        a box was given on (``given_box``, working pixels) relates to that box itself: the
+        contour has already moved within the frame's filter step.
         """
         x, y, w, h = face.box
         face_state = np.array([x + w / 2, y + h / 2, w, 0.0])
         if self.face_relation is None:
-            if self.box_relation is not None:
+            if given_box is not None:
+                box = given_box
+            elif self.box_relation is not None:
                 box = self.box_relation.box(state)
             else:
                 # An automatic start reports the head box: where the face puts the head
@@ -874,13 +896,13 @@ class TargetTracker:
 def _face_on(detections: list[Detection], state: np.ndarray) -> Detection | None:
     """The first of ``detections`` that is the face of the head at ``state`` (working pixels):
     within ``FACE_MATCH_DISTANCE`` face widths of where the contour puts the face, of about
-    its size (a factor 1.5)."""
+    its size (within a factor ``FACE_MATCH_SIZE``)."""
     x, y, size, height = FACE_ON_HEAD.box(state)
     centre_x, centre_y = x + size / 2, y + height / 2
     for detection in detections:
         x, y, w, h = detection.box
         near = np.hypot(x + w / 2 - centre_x, y + h / 2 - centre_y) <= FACE_MATCH_DISTANCE * size
-        if near and 1 / 1.5 <= w / size <= 1.5:
+        if near and 1 / FACE_MATCH_SIZE <= w / size <= FACE_MATCH_SIZE:
             return detection
     return None
 

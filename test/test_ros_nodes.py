@@ -16,6 +16,8 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
 from ros_harness import collecting, environment, replay_and_collect
+from sensor_msgs.msg import RegionOfInterest
+from std_srvs.srv import Trigger
 from test_target import track
 
 from human_tracker.demo import node_arguments
@@ -142,6 +144,11 @@ def test_motion_stage_and_tracker_in_separate_processes(
     for dds_box, core_box in zip(over_dds, offline.boxes, strict=True):
         if core_box is not None:
             np.testing.assert_allclose(dds_box, core_box, atol=1e-3)
+    # The latched status told every change of state the core went through, in order.
+    changes = [s for k, s in enumerate(offline.statuses) if k == 0 or s != offline.statuses[k - 1]]
+    assert collector.states() == (changes if changes[0] == 'WAITING' else ['WAITING', *changes])
+    if bag_name == 'head_leave_return':
+        assert collector.states()[:4] == ['WAITING', 'TRACKING', 'LOST', 'TRACKING']
 
 
 def test_hand_chain_with_skin_node_in_separate_processes(tmp_path) -> None:
@@ -318,6 +325,58 @@ def test_use_sim_time_with_the_bag_clock(tmp_path, head_bag) -> None:
     collector = _run_tracker_with_player(tracker, player, all_tracked)
     assert sorted(collector.poses) == [f.stamp_ns for f in frames]
     assert collector.diagnostics.get('/tracker_node', {}).get('frames_processed') == str(len(frames))
+
+
+def test_a_box_on_init_roi_starts_the_tracker_and_reset_forgets_it(tmp_path, head_bag) -> None:
+    """Without init_box or a motion cue the tracker waits; a box on init_roi starts it on the
+    next frame (a pose on every frame, the contour on the box), and ~/reset makes it WAITING."""
+    frames = list(read_frames(head_bag))[:20]
+    bag = write_bag_for_test(tmp_path, frames)
+    env = environment()
+    tracker = NodeProcess(
+        'human_tracker.ros.tracker_node',
+        node_arguments(COMPRESSED_CAMERA_TOPIC, True),
+        env,
+        tmp_path / 'tracker.log',
+    )
+    player = NodeProcess(
+        'human_tracker.ros.bag_play',
+        [str(bag), '--rate', '2.0', '--wait-for-subscribers', COMPRESSED_CAMERA_TOPIC, '1'],
+        env,
+        tmp_path / 'bag_play.log',
+    )
+    x, y, w, h = frames[0].ground_truth
+    with collecting() as (collector, executor):
+        roi = collector.create_publisher(RegionOfInterest, 'init_roi', 10)
+        reset = collector.create_client(Trigger, '/tracker_node/reset')
+
+        def spin_until(done: Callable[[], bool], timeout: float) -> bool:
+            deadline = time.monotonic() + timeout
+            while not done() and time.monotonic() < deadline:
+                executor.spin_once(timeout_sec=0.05)
+            return done()
+
+        try:
+            tracker.start()
+            assert spin_until(lambda: roi.get_subscription_count() > 0, 60.0), tracker.output()
+            assert spin_until(lambda: collector.states() == ['WAITING'], 30.0), tracker.output()
+            roi.publish(RegionOfInterest(x_offset=int(x), y_offset=int(y), width=int(w), height=int(h)))
+            player.start()
+            assert spin_until(lambda: len(collector.poses) == len(frames), 60.0), tracker.output()
+            assert reset.wait_for_service(timeout_sec=10.0)
+            answer = reset.call_async(Trigger.Request())
+            executor.spin_until_future_complete(answer, timeout_sec=10.0)
+            assert answer.result() is not None and answer.result().success
+            assert spin_until(lambda: collector.states()[-1] == 'WAITING', 10.0)
+        finally:
+            player.stop()
+            assert tracker.stop() == 0
+    assert sorted(collector.poses) == [f.stamp_ns for f in frames]
+    assert collector.states() == ['WAITING', 'TRACKING', 'WAITING']
+    assert collector.statuses[-1].keys() == {'state'}  # a reset tracker has no estimate to report
+    assert 0.3 < float(collector.statuses[-2]['confidence']) <= 1.0
+    first = _boxes(collector, frames[:1])[0]
+    assert summarise([first], [frames[0].ground_truth])['precision_20px'] == 1.0
 
 
 def _run_tracker_with_player(

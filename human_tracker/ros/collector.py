@@ -9,7 +9,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PolygonStamped, PoseWithCovarianceStamped
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from visualization_msgs.msg import MarkerArray
 
 from human_tracker.io.images import stamp_ns
@@ -17,13 +17,21 @@ from human_tracker.io.images import stamp_ns
 __all__ = ['PoseCollector']
 
 _KEEP_ALL = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST)
+# The tracker's status is latched: a late subscriber still gets the current state.
+_LATCHED = QoSProfile(
+    depth=1000,
+    reliability=ReliabilityPolicy.RELIABLE,
+    history=HistoryPolicy.KEEP_LAST,
+    durability=DurabilityPolicy.TRANSIENT_LOCAL,
+)
 
 
 class PoseCollector(Node):
     """Subscribes ``pose`` and ``contour`` (reliable, deep queue) and stores them by stamp.
 
-    It also keeps the latest ``/diagnostics`` values of every node, by status name, and with
-    ``markers`` the ``markers`` arrays by stamp (a subscriber makes the tracker publish them).
+    It also keeps the latest ``/diagnostics`` values of every node, by status name, every
+    ``status`` message in order (its state and values), and with ``markers`` the ``markers``
+    arrays by stamp (a subscriber makes the tracker publish them).
     """
 
     def __init__(self, namespace: str = '', *, markers: bool = False) -> None:
@@ -35,6 +43,8 @@ class PoseCollector(Node):
         self.create_subscription(PoseWithCovarianceStamped, 'pose', self._on_pose, _KEEP_ALL)
         self.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics, _KEEP_ALL)
         self.create_subscription(PolygonStamped, 'contour', self._on_contour, _KEEP_ALL)
+        self.statuses: list[dict[str, str]] = []
+        self.create_subscription(DiagnosticArray, 'status', self._on_status, _LATCHED)
         self.markers: dict[int, MarkerArray] = {}
         if markers:
             self.create_subscription(MarkerArray, 'markers', self._on_markers, _KEEP_ALL)
@@ -46,6 +56,14 @@ class PoseCollector(Node):
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
         for status in msg.status:
             self.diagnostics[status.name] = {kv.key: kv.value for kv in status.values}
+
+    def _on_status(self, msg: DiagnosticArray) -> None:
+        self.statuses.append({kv.key: kv.value for kv in msg.status[0].values})
+
+    def states(self) -> list[str]:
+        """The tracker's states in the order received, each repeat of one state dropped."""
+        states = [status['state'] for status in self.statuses]
+        return [state for k, state in enumerate(states) if k == 0 or state != states[k - 1]]
 
     def spin_until_diagnostics(self, executor: SingleThreadedExecutor, name: str, timeout: float) -> dict[str, str]:
         """Spin until a /diagnostics status named ``name`` arrives after this call; return its values."""

@@ -4,10 +4,15 @@ Subscribes ``image`` (or ``image/compressed``), ``camera_info`` and, with
 ``motion_input: foreground`` or ``motion``, that mask topic, and with ``skin_input: true``
 the ``skin`` labels, each matched to the image by exact stamp. Publishes ``pose``
 (PoseWithCovarianceStamped, metres, optical frame) and ``contour`` (PolygonStamped, pixels)
-while the target is tracked, ``markers`` (MarkerArray for RViz: the contour at the target's
-depth and a label, while the filter has an estimate) and ``debug_image`` (each only when
-subscribed), and ``/diagnostics``.
-Every output copies the header of the image it was computed from.
+while the target is tracked, ``status`` (DiagnosticArray, latched: WAITING / TRACKING /
+LOST with the confidence and each cue's support, on every change and every
+``status_period``), ``markers`` (MarkerArray for RViz: the contour at the target's depth and
+a label, while the filter has an estimate) and ``debug_image`` (each only when subscribed),
+and ``/diagnostics``. Every output copies the header of the image it was computed from.
+
+A box on ``init_roi`` (sensor_msgs/RegionOfInterest, image pixels) starts the filter there on
+the next frame; the service ``~/reset`` (std_srvs/Trigger) forgets the target: WAITING for
+motion or a box.
 """
 
 from __future__ import annotations
@@ -18,19 +23,22 @@ from collections import OrderedDict, deque
 from typing import Any
 
 import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import Point32, PolygonStamped, PoseWithCovarianceStamped
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
-from sensor_msgs.msg import Image
+from sensor_msgs.msg import Image, RegionOfInterest
+from std_msgs.msg import Header
+from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
 from human_tracker.drawing import annotate
-from human_tracker.ros.common import RESULT_QOS, WORKING_WIDTH_DESCRIPTION, declare
+from human_tracker.ros.common import LATCHED_QOS, RESULT_QOS, WORKING_WIDTH_DESCRIPTION, declare, node_status
 from human_tracker.ros.image_conversion import ImageConversionError, array_to_image, image_to_array
 from human_tracker.ros.markers import cleared_markers, target_markers
 from human_tracker.ros.stage import DEFERRED, ImageStage, ParameterSpec, spin_node, stamp_ns
 from human_tracker.vision.camera import metric_positions
 from human_tracker.vision.resolution import same_frame
-from human_tracker.vision.target import TargetParameters, TargetResult, TargetTracker, parameters_for
+from human_tracker.vision.target import LOST, TargetParameters, TargetResult, TargetTracker, parameters_for
 from human_tracker.vision.templates import make_template
 from human_tracker.vision.tracker import TrackerParameters, check_box_in_image
 
@@ -238,6 +246,22 @@ class TrackerNode(ImageStage):
         self.debug_pub = self.create_publisher(Image, 'debug_image', RESULT_QOS)
         self.markers_pub = self.create_publisher(MarkerArray, 'markers', RESULT_QOS)
         self.markers_shown = False
+        status_period = declare(
+            self,
+            'status_period',
+            1.0,
+            'Seconds between status messages while the state stays the same (each change is sent at once).',
+            low=0.05,
+            high=60.0,
+            read_only=True,
+        )
+        self.status_pub = self.create_publisher(DiagnosticArray, 'status', LATCHED_QOS)
+        self.status_header = Header()
+        self.status_sent: str | None = None
+        self.create_timer(status_period, self._publish_status, clock=self.steady_clock)
+        self.requested_box: tuple[float, float, float, float] | None = None
+        self.create_subscription(RegionOfInterest, 'init_roi', self._on_init_roi, RESULT_QOS)
+        self.create_service(Trigger, '~/reset', self._on_reset)
         self.use_camera_info()
         # The mask topics each frame waits for; a pipeline hands the masks over with the frames.
         topics = [self.motion_input] if self.motion_input != 'none' else []
@@ -262,6 +286,7 @@ class TrackerNode(ImageStage):
         self.start_problem: str | None = None
         if subscribe_image:
             self.check_start(motion=self.motion_input != 'none', skin=skin_input)
+        self._publish_status()
         self.get_logger().info(
             f'configured: tracking {target} with {filter_parameters.num_particles} particles, '
             f'{self.template.num_points} points, mask inputs: {", ".join(self.mask_topics) or "none"}'
@@ -388,6 +413,15 @@ class TrackerNode(ImageStage):
         size = image.shape[:2]
         motion = self._of_frame(motion, size, 'mask', 'mask_size')
         skin = self._of_frame(skin, size, 'skin labels', 'skin_size')
+        if self.requested_box is not None:
+            box, self.requested_box = self.requested_box, None
+            try:
+                check_box_in_image(box, size)
+                self.tracker.initialise_from_box(box)
+                self.get_logger().info(f'started from the box on init_roi {box}')
+            except ValueError as err:
+                self.counters.reject('init_roi')
+                self.get_logger().error(f'init_roi ignored: {err}')
         if self.init_box is not None and not self.tracker.filter.initialised:
             try:
                 check_box_in_image(self.init_box, size)
@@ -398,6 +432,9 @@ class TrackerNode(ImageStage):
                 self.get_logger().error(self.start_problem)
         result = self.tracker.process(image, motion, skin)
         self.last_result = result
+        self.status_header = header
+        if result.status != self.status_sent:
+            self._publish_status()
         if result.motion_set_aside:
             self.frames_motion_set_aside += 1
             self.get_logger().warn(
@@ -481,6 +518,46 @@ class TrackerNode(ImageStage):
         self.markers_pub.publish(markers)
         self.markers_shown = True
 
+    def _on_init_roi(self, msg: RegionOfInterest) -> None:
+        """Start from this box (x, y, w, h, the image's pixels) on the next frame."""
+        if msg.width == 0 or msg.height == 0:
+            self.counters.reject('init_roi')
+            self.get_logger().error(f'init_roi ignored: an empty box ({msg.width} x {msg.height})')
+            return
+        self.requested_box = (float(msg.x_offset), float(msg.y_offset), float(msg.width), float(msg.height))
+
+    def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        """Forget the target; the start box does not apply again (it was the first frame's)."""
+        self.tracker.reset()
+        self.init_box = self.requested_box = None
+        self.last_result = None
+        self._publish_status()
+        response.success = True
+        response.message = 'WAITING for motion, or a box on init_roi'
+        return response
+
+    def _publish_status(self) -> None:
+        """The tracker's state and its cues' support, stamped with the last frame tracked."""
+        state = self.tracker.status
+        level = DiagnosticStatus.WARN if state == LOST else DiagnosticStatus.OK
+        status = node_status(self, state, self._target_values(), level=level)
+        self.status_pub.publish(DiagnosticArray(header=self.status_header, status=[status]))
+        self.status_sent = state
+
+    def _target_values(self) -> dict[str, str]:
+        """The last estimate's confidence and per-cue support (empty without one)."""
+        result = self.last_result
+        if result is None or result.estimate is None:
+            return {}
+        estimate = result.estimate
+        return {
+            'confidence': f'{estimate.confidence:.3f}',
+            'motion_support': f'{estimate.motion_support:.3f}',
+            'skin_support': f'{estimate.skin_support:.3f}',
+            'appearance_distance': f'{estimate.appearance_distance:.3f}',
+            'effective_sample_size': f'{estimate.effective_sample_size:.1f}',
+        }
+
     def diagnostics_state(self) -> tuple[str, dict[str, Any]]:
         extra: dict[str, Any] = {
             'particles': self.tracker.filter.parameters.num_particles,
@@ -491,14 +568,7 @@ class TrackerNode(ImageStage):
         }
         if self.start_problem is not None:
             extra['cannot_start'] = self.start_problem
-        result = self.last_result
-        if result is not None and result.estimate is not None:
-            extra['confidence'] = f'{result.estimate.confidence:.3f}'
-            extra['motion_support'] = f'{result.estimate.motion_support:.3f}'
-            extra['skin_support'] = f'{result.estimate.skin_support:.3f}'
-            extra['appearance_distance'] = f'{result.estimate.appearance_distance:.3f}'
-            extra['effective_sample_size'] = f'{result.estimate.effective_sample_size:.1f}'
-        return self.tracker.status, extra
+        return self.tracker.status, {**extra, **self._target_values()}
 
 
 def main(args: list[str] | None = None) -> int:

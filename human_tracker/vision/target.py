@@ -415,6 +415,7 @@ class TargetTracker:
         self.filter.initialise(state / self._to_camera_factors())
         self.box_relation = BoxRelation.of(box, state)  # until the contour settles on the next frame
         self.face_relation = None
+        self.runs_without_own_face = 0
         self.start_box = tuple(float(v) for v in box)  # type: ignore[assignment]
         self.started_from_box = True
         self.appearance = None

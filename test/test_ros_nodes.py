@@ -27,7 +27,7 @@ from human_tracker.offline import TrackOptions, read_poses, track_sequence
 from human_tracker.ros.collector import PoseCollector
 from human_tracker.ros.processes import NodeProcess
 from human_tracker.scenes.generator import SCENES
-from human_tracker.vision.camera import default_camera_matrix
+from human_tracker.vision.camera import back_project, default_camera_matrix
 from human_tracker.vision.templates import ContourTemplate, fit_state, head_and_shoulders, open_hand
 from human_tracker.vision.tracker import box_from_state
 
@@ -65,6 +65,25 @@ def test_bag_play_and_tracker_node_in_separate_processes(head_bag, tmp_path) -> 
     assert np.median(relative) < 0.1
     covariance = np.array(collector.poses[frames[-1].stamp_ns].pose.covariance).reshape(6, 6)
     assert np.all(np.diag(covariance) > 0)
+    # Velocity: the ground truth's metric centre differentiated, against the AR(2) state's.
+    truth = []
+    for frame in frames:
+        x, y, w, h = frame.ground_truth
+        truth.append(
+            back_project(np.array([[x + w / 2, y + h / 2]]), focal * 0.16 / w, default_camera_matrix(640, 480))[0]
+        )
+    stamps = np.array([f.stamp_ns for f in frames]) / 1e9
+    true_velocity = (np.diff(truth, axis=0) / np.diff(stamps)[:, None])[:, :2]
+    twists = [collector.velocities[f.stamp_ns].twist for f in frames[1:]]  # none on the first frame
+    assert frames[0].stamp_ns not in collector.velocities
+    velocity = np.array([[t.twist.linear.x, t.twist.linear.y] for t in twists])
+    spread = np.sqrt([np.diag(np.reshape(t.covariance, (6, 6)))[:2] for t in twists])
+    print(f'velocity error (m/s): median {np.median(np.abs(velocity - true_velocity), axis=0)}')
+    assert np.all(np.median(np.abs(velocity - true_velocity), axis=0) < 0.1)  # the head moves at ~0.4 m/s
+    assert np.corrcoef(velocity[:, 0], true_velocity[:, 0])[0, 1] > 0.8
+    # The covariance is the cloud's: errors about one standard deviation (0.5 and 0.75 measured).
+    normalised = np.mean(((velocity - true_velocity) / spread) ** 2, axis=0)
+    assert np.all((normalised > 0.1) & (normalised < 4.0)), normalised
 
 
 def test_markers_for_rviz_follow_the_contour_at_the_pose_depth(head_bag, tmp_path) -> None:

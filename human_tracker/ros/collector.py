@@ -6,7 +6,7 @@ import time
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import PolygonStamped, PoseWithCovarianceStamped
+from geometry_msgs.msg import PolygonStamped, PoseWithCovarianceStamped, TwistWithCovarianceStamped
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -27,7 +27,7 @@ _LATCHED = QoSProfile(
 
 
 class PoseCollector(Node):
-    """Subscribes ``pose`` and ``contour`` (reliable, deep queue) and stores them by stamp.
+    """Subscribes ``pose``, ``velocity`` and ``contour`` (reliable, deep queue) and stores them by stamp.
 
     It also keeps the latest ``/diagnostics`` values of every node, by status name, every
     ``status`` message in order (its state and values), and with ``markers`` the ``markers``
@@ -43,6 +43,13 @@ class PoseCollector(Node):
         self.create_subscription(PoseWithCovarianceStamped, 'pose', self._on_pose, _KEEP_ALL)
         self.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics, _KEEP_ALL)
         self.create_subscription(PolygonStamped, 'contour', self._on_contour, _KEEP_ALL)
+        self.velocities: dict[int, TwistWithCovarianceStamped] = {}
+        self.create_subscription(
+            TwistWithCovarianceStamped,
+            'velocity',
+            lambda msg: self.velocities.__setitem__(stamp_ns(msg.header), msg),
+            _KEEP_ALL,
+        )
         self.statuses: list[dict[str, str]] = []
         self.create_subscription(DiagnosticArray, 'status', self._on_status, _LATCHED)
         self.markers: dict[int, MarkerArray] = {}

@@ -3,8 +3,9 @@
 Subscribes ``image`` (or ``image/compressed``), ``camera_info`` and, with
 ``motion_input: foreground`` or ``motion``, that mask topic, and with ``skin_input: true``
 the ``skin`` labels, each matched to the image by exact stamp. Publishes ``pose``
-(PoseWithCovarianceStamped, metres, optical frame) and ``contour`` (PolygonStamped, pixels)
-while the target is tracked, ``status`` (DiagnosticArray, latched: WAITING / TRACKING /
+(PoseWithCovarianceStamped, metres, optical frame), ``velocity`` (TwistWithCovarianceStamped,
+m/s and rad/s, optical frame) and ``contour`` (PolygonStamped, pixels) while the target is
+tracked, ``status`` (DiagnosticArray, latched: WAITING / TRACKING /
 LOST with the confidence and each cue's support, on every change and every
 ``status_period``), ``markers`` (MarkerArray for RViz: the contour at the target's depth and
 a label, while the filter has an estimate) and ``debug_image`` (each only when subscribed),
@@ -24,7 +25,7 @@ from typing import Any
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from geometry_msgs.msg import Point32, PolygonStamped, PoseWithCovarianceStamped
+from geometry_msgs.msg import Point32, PolygonStamped, PoseWithCovarianceStamped, TwistWithCovarianceStamped
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image, RegionOfInterest
 from std_msgs.msg import Header
@@ -242,6 +243,7 @@ class TrackerNode(ImageStage):
         self.pending: deque[tuple[int, float, np.ndarray, Any]] = deque()
 
         self.pose_pub = self.create_publisher(PoseWithCovarianceStamped, 'pose', RESULT_QOS)
+        self.velocity_pub = self.create_publisher(TwistWithCovarianceStamped, 'velocity', RESULT_QOS)
         self.contour_pub = self.create_publisher(PolygonStamped, 'contour', RESULT_QOS)
         self.debug_pub = self.create_publisher(Image, 'debug_image', RESULT_QOS)
         self.markers_pub = self.create_publisher(MarkerArray, 'markers', RESULT_QOS)
@@ -409,6 +411,7 @@ class TrackerNode(ImageStage):
                 f'{(stamp - self.last_tracked_ns) / 1e9:.2f} s since the last frame: target marked lost',
                 throttle_duration_sec=5.0,
             )
+        interval = (stamp - self.last_tracked_ns) / 1e9 if self.last_tracked_ns >= 0 else 0.0
         self.last_tracked_ns = stamp
         size = image.shape[:2]
         motion = self._of_frame(motion, size, 'mask', 'mask_size')
@@ -443,7 +446,7 @@ class TrackerNode(ImageStage):
             )
         self.counters.processed += 1
         if result.tracking:
-            self._publish(result, header, size)
+            self._publish(result, header, size, interval)
         if self.markers_pub.get_subscription_count() > 0:
             self._publish_markers(result, header, size)
         if self.debug_pub.get_subscription_count() > 0:
@@ -480,13 +483,15 @@ class TrackerNode(ImageStage):
         )
         return None
 
-    def _publish(self, result: TargetResult, header: Any, shape: tuple[int, ...]) -> None:
+    def _publish(self, result: TargetResult, header: Any, shape: tuple[int, ...], interval: float) -> None:
+        """The pose and contour; the velocity too when the frame before is ``interval`` s back."""
         estimate = result.estimate
-        particles = self.tracker.particles
-        assert estimate is not None and particles is not None
+        particles, previous = self.tracker.particles, self.tracker.previous_particles
+        assert estimate is not None and particles is not None and previous is not None
         k = self.intrinsics(shape[1], shape[0])
-        position = metric_positions(estimate.state, self.template, k, self.target_width)
-        cloud = metric_positions(particles, self.template, k, self.target_width)
+        camera = (self.template, k, self.target_width)
+        position = metric_positions(estimate.state, *camera)
+        cloud = metric_positions(particles, *camera)
         pose = PoseWithCovarianceStamped()
         pose.header = header
         pose.pose.pose.position.x, pose.pose.pose.position.y, pose.pose.pose.position.z = (float(v) for v in position)
@@ -499,6 +504,10 @@ class TrackerNode(ImageStage):
         covariance[5, 5] = estimate.covariance[3, 3]
         pose.pose.covariance = covariance.reshape(-1).tolist()
         self.pose_pub.publish(pose)
+        if interval > 0:
+            self.velocity_pub.publish(
+                _velocity(header, cloud, metric_positions(previous, *camera), previous, particles, interval)
+            )
         contour = PolygonStamped()
         contour.header = header
         contour.polygon.points = [Point32(x=float(x), y=float(y), z=0.0) for x, y in estimate.contour]
@@ -569,6 +578,33 @@ class TrackerNode(ImageStage):
         if self.start_problem is not None:
             extra['cannot_start'] = self.start_problem
         return self.tracker.status, {**extra, **self._target_values()}
+
+
+def _velocity(
+    header: Any,
+    cloud: np.ndarray,
+    previous_cloud: np.ndarray,
+    previous: np.ndarray,
+    particles: np.ndarray,
+    interval: float,
+) -> TwistWithCovarianceStamped:
+    """The AR(2) state's velocity: each particle's move since its state on the frame before
+    (``(P, 3)`` metric positions, ``(P, 4)`` states), over ``interval`` s; the mean and the spread
+    of the cloud's velocities."""
+    linear = (cloud - previous_cloud) / interval
+    turn = (particles[:, 3] - previous[:, 3]) / interval
+    twist = TwistWithCovarianceStamped()
+    twist.header = header
+    twist.twist.twist.linear.x, twist.twist.twist.linear.y, twist.twist.twist.linear.z = (
+        float(v) for v in linear.mean(axis=0)
+    )
+    twist.twist.twist.angular.z = float(turn.mean())
+    covariance = np.zeros((6, 6))
+    covariance[:3, :3] = np.cov(linear.T)
+    covariance[3, 3] = covariance[4, 4] = _UNKNOWN_VARIANCE
+    covariance[5, 5] = float(turn.var())
+    twist.twist.covariance = covariance.reshape(-1).tolist()
+    return twist
 
 
 def main(args: list[str] | None = None) -> int:

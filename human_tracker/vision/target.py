@@ -403,6 +403,14 @@ class TargetTracker:
             return None
         return self.filter.particles * self._to_camera_factors()
 
+    @property
+    def previous_particles(self) -> np.ndarray | None:
+        """``(P, 4)`` each particle's state on the frame before (the AR(2) state's x_{k-1}), camera
+        pixels, or None before initialisation."""
+        if self.filter.previous is None:
+            return None
+        return self.filter.previous * self._to_camera_factors()
+
     def initialise_from_box(self, box: tuple[float, float, float, float]) -> None:
         """Start on a known box (x, y, w, h), camera pixels (benchmark protocol, an operator, a detector).
 

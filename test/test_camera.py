@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 import pytest
 
-from human_tracker.vision.camera import default_camera_matrix, metric_positions
+from human_tracker.vision.camera import default_camera_matrix, metric_positions, undistort_pixels
 from human_tracker.vision.templates import head_and_shoulders
 
 
@@ -25,3 +26,24 @@ def test_default_camera_has_a_60_degree_field_of_view() -> None:
     k = default_camera_matrix(640, 480)
     assert 2 * np.degrees(np.arctan(320 / k[0, 0])) == pytest.approx(60.0)
     assert (k[0, 2], k[1, 2]) == (319.5, 239.5)
+
+
+def test_a_distorted_pixel_becomes_the_ray_of_its_point() -> None:
+    """A point seen through a lens with barrel distortion (plumb_bob) is undistorted back to where
+    a pinhole camera with the same K sees it, and its metric position is the point's."""
+    k = np.array([[500.0, 0, 320.0], [0, 500.0, 240.0], [0, 0, 1]])
+    distortion = np.array([-0.3, 0.1, 0.001, -0.002, 0.0])
+    point = np.array([[0.2, -0.12, 0.8]])
+    seen, _ = cv2.projectPoints(point, np.zeros(3), np.zeros(3), k, distortion)
+    ideal, _ = cv2.projectPoints(point, np.zeros(3), np.zeros(3), k, None)
+    seen, ideal = seen.reshape(1, 2), ideal.reshape(1, 2)
+    # Hand-checked: x = 0.25, y = -0.15, r² = 0.085: the radial factor 1 - 0.3 r² + 0.1 r⁴ = 0.975.
+    assert np.linalg.norm(seen - ideal) > 3.0  # pixels: the distortion matters at this radius
+    np.testing.assert_allclose(undistort_pixels(seen, k, distortion), ideal, atol=1e-3)
+    np.testing.assert_array_equal(undistort_pixels(seen, k, None), seen)
+    np.testing.assert_array_equal(undistort_pixels(seen, k, np.zeros(5)), seen)
+    template = head_and_shoulders()  # head box centre (0, -0.005) head widths from the state
+    width = 500.0 * 0.16 / 0.8  # pixels, for a 0.16 m head at 0.8 m
+    state = np.array([seen[0, 0], seen[0, 1] + 0.005 * width, width, 0.0])
+    np.testing.assert_allclose(metric_positions(state, template, k, 0.16, distortion), point[0], atol=1e-5)
+    assert np.linalg.norm(metric_positions(state, template, k, 0.16) - point[0]) > 0.005

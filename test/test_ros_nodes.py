@@ -27,7 +27,7 @@ from human_tracker.offline import TrackOptions, read_poses, track_sequence
 from human_tracker.ros.collector import PoseCollector
 from human_tracker.ros.processes import NodeProcess
 from human_tracker.scenes.generator import SCENES
-from human_tracker.vision.camera import back_project, default_camera_matrix
+from human_tracker.vision.camera import back_project, default_camera_matrix, metric_positions
 from human_tracker.vision.templates import ContourTemplate, fit_state, head_and_shoulders, open_hand
 from human_tracker.vision.tracker import box_from_state
 
@@ -423,3 +423,51 @@ def write_bag_for_test(tmp_path, frames) -> object:
         tmp_path / 'short',
         [(f.stamp_ns, cv2.imdecode(f.message.data, cv2.IMREAD_COLOR), f.ground_truth) for f in frames],
     )
+
+
+def test_a_lens_with_distortion_is_undistorted_before_the_pose(tmp_path, head_bag) -> None:
+    """video_publisher sends camera_info with plumb_bob coefficients from a calibration file; the
+    tracker's poses are the rays of undistorted pixels (and would be metres off without)."""
+    frames = list(read_frames(head_bag))[:10]
+    folder = tmp_path / 'frames'
+    folder.mkdir()
+    for index, frame in enumerate(frames):
+        cv2.imwrite(str(folder / f'{index:04d}.png'), cv2.imdecode(frame.message.data, cv2.IMREAD_COLOR))
+    k = [520.0, 0.0, 100.0, 0.0, 515.0, 60.0, 0.0, 0.0, 1.0]  # the head far from the axis: bent most
+    distortion = [-0.3, 0.1, 0.001, -0.002, 0.0]
+    (tmp_path / 'camera.yaml').write_text(
+        'image_width: 640\nimage_height: 480\ncamera_name: test\n'
+        f'camera_matrix: {{rows: 3, cols: 3, data: {k}}}\ndistortion_model: plumb_bob\n'
+        f'distortion_coefficients: {{rows: 1, cols: 5, data: {distortion}}}\n'
+    )
+    env = environment()
+    box = '[' + ', '.join(f'{v:.2f}' for v in frames[0].ground_truth) + ']'
+    tracker = NodeProcess(
+        'human_tracker.ros.tracker_node',
+        ['--ros-args', '-p', f'init_box:={box}', '-p', 'qos_reliability:=reliable', '-p', 'qos_depth:=100']
+        + ['-r', 'image:=image_raw'],
+        env,
+        tmp_path / 'tracker.log',
+    )
+    camera = NodeProcess(
+        'human_tracker.ros.video_publisher',
+        ['--ros-args', '-p', f'source:={folder}', '-p', 'rate:=5.0', '-p', 'wait_for_subscribers:=1']
+        + ['-p', f'camera_info_file:={tmp_path / "camera.yaml"}'],
+        env,
+        tmp_path / 'camera.log',
+    )
+    done = lambda c: len(c.poses) == len(c.contours) == len(frames)  # noqa: E731
+    collector = _run_tracker_with_player(tracker, camera, done, timeout=60.0)
+    assert len(collector.poses) == len(frames), tracker.output()
+    template, matrix = head_and_shoulders(), np.reshape(k, (3, 3))
+    published, undistorted, pinhole = [], [], []
+    for stamp, pose in sorted(collector.poses.items()):
+        state = fit_state(template.points, collector.contours[stamp])
+        published.append([pose.pose.pose.position.x, pose.pose.pose.position.y, pose.pose.pose.position.z])
+        undistorted.append(metric_positions(state, template, matrix, 0.16, distortion))
+        pinhole.append(metric_positions(state, template, matrix, 0.16))
+    # A frame that reaches the tracker before the first camera_info uses the default camera.
+    matches = np.all(np.abs(np.subtract(published, undistorted)) < 2e-3, axis=1)
+    first = int(np.argmax(matches))
+    assert first <= 2 and matches[first:].all(), (published, undistorted)
+    assert np.all(np.linalg.norm(np.subtract(published, pinhole)[first:], axis=1) > 0.01)

@@ -52,6 +52,8 @@ from human_tracker.vision.camera import default_camera_matrix
 __all__ = ['DEFERRED', 'ParameterSpec', 'ImageStage', 'run_nodes', 'spin_node', 'stamp_ns']
 
 DEFERRED = object()
+# camera_info's distortion models whose coefficients are OpenCV's (k1, k2, p1, p2, k3, ...).
+_OPENCV_DISTORTION_MODELS = ('plumb_bob', 'rational_polynomial')
 """Returned by ``handle_frame`` for a frame held for later (it is timed when processed)."""
 
 
@@ -89,6 +91,8 @@ class ImageStage(Node):
         self.last_stamp_ns = -1
         self.time_resets = 0
         self.camera_matrix: np.ndarray | None = None
+        self.rectified_matrix: np.ndarray | None = None
+        self.distortion: np.ndarray | None = None
         self._bindings: list[tuple[Sequence[ParameterSpec], Callable[[], Any], Callable[[Any], None]]] = []
         self.diagnostics_pub = self.create_publisher(DiagnosticArray, '/diagnostics', RESULT_QOS)
         period = declare(
@@ -237,6 +241,27 @@ class ImageStage(Node):
         k = np.asarray(msg.k, dtype=np.float64).reshape(3, 3)
         if k[0, 0] > 0 and k[1, 1] > 0:
             self.camera_matrix = k
+            self.rectified_matrix = np.asarray(msg.p, dtype=np.float64).reshape(3, 4)[:, :3]
+        self.distortion = None
+        if np.any(msg.d):
+            if msg.distortion_model in _OPENCV_DISTORTION_MODELS:
+                self.distortion = np.asarray(msg.d, dtype=np.float64)
+            else:
+                self.get_logger().warn(
+                    f'camera_info distortion model {msg.distortion_model!r} is not supported: pixels taken '
+                    'as undistorted (feed a rectified image, with image_rectified: true)',
+                    throttle_duration_sec=60.0,
+                )
+
+    def lens(self, width: int, height: int, rectified: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        """K and the distortion coefficients D of ``camera_info`` for a raw image; for a rectified
+        one, P's intrinsics and no distortion (ROS's convention); the default K until one arrives."""
+        if self.camera_matrix is None:
+            return default_camera_matrix(width, height), None
+        if rectified:
+            usable = self.rectified_matrix is not None and self.rectified_matrix[0, 0] > 0
+            return (self.rectified_matrix if usable else self.camera_matrix), None
+        return self.camera_matrix, self.distortion
 
     def intrinsics(self, width: int, height: int) -> np.ndarray:
         """K from ``camera_info``, or the documented default (60° pinhole) until one arrives."""

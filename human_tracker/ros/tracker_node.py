@@ -37,7 +37,7 @@ from human_tracker.ros.common import LATCHED_QOS, RESULT_QOS, WORKING_WIDTH_DESC
 from human_tracker.ros.image_conversion import ImageConversionError, array_to_image, image_to_array
 from human_tracker.ros.markers import cleared_markers, target_markers
 from human_tracker.ros.stage import DEFERRED, ImageStage, ParameterSpec, spin_node, stamp_ns
-from human_tracker.vision.camera import metric_positions
+from human_tracker.vision.camera import metric_positions, undistort_pixels
 from human_tracker.vision.resolution import same_frame
 from human_tracker.vision.target import LOST, TargetParameters, TargetResult, TargetTracker, parameters_for
 from human_tracker.vision.templates import make_template
@@ -224,6 +224,14 @@ class TrackerNode(ImageStage):
             'Seconds a frame waits for its masks (motion, skin) before it is tracked without.',
             low=0.0,
             high=10.0,
+        )
+        self.image_rectified = declare(
+            self,
+            'image_rectified',
+            False,
+            'The image is rectified (image_rect): rays through camera_info P, no distortion; '
+            'false: through K after undistorting with D.',
+            read_only=True,
         )
         self.max_gap = declare(
             self, 'max_gap', 1.0, 'Seconds between frames after which the target counts as lost.', low=0.0, high=3600.0
@@ -488,8 +496,8 @@ class TrackerNode(ImageStage):
         estimate = result.estimate
         particles, previous = self.tracker.particles, self.tracker.previous_particles
         assert estimate is not None and particles is not None and previous is not None
-        k = self.intrinsics(shape[1], shape[0])
-        camera = (self.template, k, self.target_width)
+        k, distortion = self.lens(shape[1], shape[0], self.image_rectified)
+        camera = (self.template, k, self.target_width, distortion)
         position = metric_positions(estimate.state, *camera)
         cloud = metric_positions(particles, *camera)
         pose = PoseWithCovarianceStamped()
@@ -521,9 +529,10 @@ class TrackerNode(ImageStage):
                 self.markers_pub.publish(cleared_markers(header))
                 self.markers_shown = False
             return
-        k = self.intrinsics(shape[1], shape[0])
+        k, distortion = self.lens(shape[1], shape[0], self.image_rectified)
         depth = float(metric_positions(estimate.state, self.template, k, self.target_width)[2])
-        markers = target_markers(header, estimate.contour, depth, k, kind=self.target, ident=0, status=result.status)
+        contour = undistort_pixels(estimate.contour, k, distortion)
+        markers = target_markers(header, contour, depth, k, kind=self.target, ident=0, status=result.status)
         self.markers_pub.publish(markers)
         self.markers_shown = True
 

@@ -4,16 +4,20 @@ With intrinsics K (fx, fy, cx, cy, pixels) and the reference region's physical w
 (metres), a state whose reference region is ``w = s * template_width`` pixels wide lies at
 depth ``Z = fx W / w``; its centre pixel (u, v) back-projects to
 ``X = (u - cx) Z / fx``, ``Y = (v - cy) Z / fy`` in the optical frame (x right, y down,
-z forward).
+z forward). A lens with distortion D (camera_info's plumb_bob or rational_polynomial model,
+OpenCV's coefficients) bends pixels first: the centre pixel is undistorted before it becomes
+a ray; the depth from the width is left as measured (the width spans the region's middle,
+where the distortion changes little).
 """
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 
 from human_tracker.vision.templates import ContourTemplate
 
-__all__ = ['DEFAULT_HORIZONTAL_FOV', 'back_project', 'default_camera_matrix', 'metric_positions']
+__all__ = ['DEFAULT_HORIZONTAL_FOV', 'back_project', 'default_camera_matrix', 'metric_positions', 'undistort_pixels']
 
 DEFAULT_HORIZONTAL_FOV = np.deg2rad(60.0)
 """Field of view assumed when no camera_info arrives: 60°, typical of a robot's RGB camera."""
@@ -30,6 +34,7 @@ def metric_positions(
     template: ContourTemplate,
     camera_matrix: np.ndarray,
     target_width: float,
+    distortion: np.ndarray | None = None,
 ) -> np.ndarray:
     """Optical-frame positions (metres) of the reference-region centres of ``states``.
 
@@ -38,6 +43,7 @@ def metric_positions(
         template: The template (its reference box sets what ``target_width`` measures).
         camera_matrix: ``(3, 3)`` intrinsics K.
         target_width: Physical width of the reference region (head or hand), metres.
+        distortion: The lens's distortion coefficients D (None: none, or a rectified image).
 
     Returns:
         ``(P, 3)`` or ``(3,)`` positions X, Y, Z in metres.
@@ -51,7 +57,8 @@ def metric_positions(
     u = states[:, 0] + states[:, 2] * (cos * centre[0] - sin * centre[1])
     v = states[:, 1] + states[:, 2] * (sin * centre[0] + cos * centre[1])
     depth = camera_matrix[0, 0] * target_width / np.maximum(states[:, 2] * rw, 1e-6)
-    positions = back_project(np.stack([u, v], axis=1), depth, camera_matrix)
+    pixels = undistort_pixels(np.stack([u, v], axis=1), camera_matrix, distortion)
+    positions = back_project(pixels, depth, camera_matrix)
     return positions[0] if single else positions
 
 
@@ -66,3 +73,15 @@ def back_project(pixels: np.ndarray, depth: float | np.ndarray, camera_matrix: n
     fx, fy = camera_matrix[0, 0], camera_matrix[1, 1]
     cx, cy = camera_matrix[0, 2], camera_matrix[1, 2]
     return np.stack([(pixels[:, 0] - cx) * depth / fx, (pixels[:, 1] - cy) * depth / fy, depth], axis=1)
+
+
+def undistort_pixels(pixels: np.ndarray, camera_matrix: np.ndarray, distortion: np.ndarray | None) -> np.ndarray:
+    """``pixels`` ``(N, 2)`` (u, v) of a lens with distortion coefficients ``distortion`` (OpenCV's
+    order: k1, k2, p1, p2[, k3[, k4, k5, k6]]) where an ideal pinhole camera with the same K
+    would see them; unchanged without distortion (None or all zeros)."""
+    pixels = np.asarray(pixels, dtype=np.float64)
+    if distortion is None or not np.any(distortion) or len(pixels) == 0:
+        return pixels
+    coefficients = np.asarray(distortion, dtype=np.float64).reshape(-1, 1)
+    ideal = cv2.undistortPoints(pixels.reshape(-1, 1, 2), camera_matrix, coefficients, P=camera_matrix)
+    return ideal.reshape(-1, 2)

@@ -37,7 +37,7 @@ from human_tracker.ros.common import LATCHED_QOS, RESULT_QOS, WORKING_WIDTH_DESC
 from human_tracker.ros.image_conversion import ImageConversionError, array_to_image, image_to_array
 from human_tracker.ros.markers import cleared_markers, target_markers
 from human_tracker.ros.stage import DEFERRED, ImageStage, ParameterSpec, spin_node, stamp_ns
-from human_tracker.vision.camera import metric_positions, undistort_pixels
+from human_tracker.vision.camera import POSITION_NOISE, metric_positions, position_covariance, undistort_pixels
 from human_tracker.vision.resolution import same_frame
 from human_tracker.vision.target import LOST, TargetParameters, TargetResult, TargetTracker, parameters_for
 from human_tracker.vision.templates import make_template
@@ -225,6 +225,16 @@ class TrackerNode(ImageStage):
             low=0.0,
             high=10.0,
         )
+        self.position_noise = declare(
+            self,
+            'position_noise',
+            list(POSITION_NOISE),
+            "The contour's own error in the pose's covariance, a share of target_width: "
+            'a + b (1 - confidence) across the optical axis, of the depth along it.',
+            read_only=True,
+        )
+        if len(self.position_noise) != 2 or min(self.position_noise) < 0:
+            raise ValueError(f'position_noise must be [a >= 0, b >= 0], got {self.position_noise}')
         self.image_rectified = declare(
             self,
             'image_rectified',
@@ -507,7 +517,9 @@ class TrackerNode(ImageStage):
         pose.pose.pose.orientation.z = float(np.sin(theta / 2.0))
         pose.pose.pose.orientation.w = float(np.cos(theta / 2.0))
         covariance = np.zeros((6, 6))
-        covariance[:3, :3] = np.cov(cloud.T)
+        covariance[:3, :3] = position_covariance(
+            cloud, position, estimate.confidence, self.target_width, tuple(self.position_noise)
+        )
         covariance[3, 3] = covariance[4, 4] = _UNKNOWN_VARIANCE
         covariance[5, 5] = estimate.covariance[3, 3]
         pose.pose.covariance = covariance.reshape(-1).tolist()

@@ -17,10 +17,27 @@ import numpy as np
 
 from human_tracker.vision.templates import ContourTemplate
 
-__all__ = ['DEFAULT_HORIZONTAL_FOV', 'back_project', 'default_camera_matrix', 'metric_positions', 'undistort_pixels']
+__all__ = [
+    'DEFAULT_HORIZONTAL_FOV',
+    'POSITION_NOISE',
+    'back_project',
+    'default_camera_matrix',
+    'metric_positions',
+    'position_covariance',
+    'undistort_pixels',
+]
 
 DEFAULT_HORIZONTAL_FOV = np.deg2rad(60.0)
 """Field of view assumed when no camera_info arrives: 60°, typical of a robot's RGB camera."""
+
+
+POSITION_NOISE = (0.05, 0.3)
+"""The fit's own error, as a share of the target's width: ``a + b (1 - confidence)`` (see
+:func:`position_covariance`). Measured on the real head sequences (5 seeds from the first box,
+every tracked frame against the annotated box, in head widths): the normalised estimation
+error squared of x, y is then 1.9-3.1 (2 expected) on david, david_colour, seated_agbani and
+interview_alberto, 7.5 on sunshade and 14 on trellis, where the contour is off the head for
+long stretches."""
 
 
 def default_camera_matrix(width: int, height: int, horizontal_fov: float = DEFAULT_HORIZONTAL_FOV) -> np.ndarray:
@@ -85,3 +102,26 @@ def undistort_pixels(pixels: np.ndarray, camera_matrix: np.ndarray, distortion: 
     coefficients = np.asarray(distortion, dtype=np.float64).reshape(-1, 1)
     ideal = cv2.undistortPoints(pixels.reshape(-1, 1, 2), camera_matrix, coefficients, P=camera_matrix)
     return ideal.reshape(-1, 2)
+
+
+def position_covariance(
+    cloud: np.ndarray,
+    position: np.ndarray,
+    confidence: float,
+    target_width: float,
+    position_noise: tuple[float, float] = POSITION_NOISE,
+) -> np.ndarray:
+    """``(3, 3)`` covariance (m²) of a pose at ``position`` (metres, optical frame).
+
+    The particle cloud's spread (``cloud``, ``(P, 3)`` metric positions) says how far the
+    filter's hypotheses disagree, not how far the best contour sits from the person: after
+    resampling the cloud is a few pixels wide, while the contour's centre is off by 5-20 % of
+    the head's width on real people, more when fewer of its points find an edge. So an error
+    of ``target_width`` (metres) times ``a + b (1 - confidence)`` (``position_noise``;
+    ``confidence``: the share of contour points on an edge) is added across the optical axis,
+    and the same share of the depth along it (depth comes from the width, which is off by
+    as much).
+    """
+    share = position_noise[0] + position_noise[1] * (1.0 - float(np.clip(confidence, 0.0, 1.0)))
+    lateral, along = share * target_width, share * float(position[2])
+    return np.cov(np.asarray(cloud).T) + np.diag([lateral**2, lateral**2, along**2])

@@ -32,6 +32,7 @@ __all__ = [
     'CAMERA_TOPIC',
     'COMPRESSED_CAMERA_TOPIC',
     'CAMERA_INFO_TOPIC',
+    'DEPTH_TOPIC',
     'ground_truth_topic',
     'guarded',
     'write_bag',
@@ -42,6 +43,7 @@ __all__ = [
 CAMERA_TOPIC = '/camera/image_raw'
 COMPRESSED_CAMERA_TOPIC = '/camera/image_raw/compressed'
 CAMERA_INFO_TOPIC = '/camera/camera_info'
+DEPTH_TOPIC = '/camera/depth/image_raw'
 CAMERA_FRAME = 'camera_optical_frame'
 _IMAGE_TYPES = ('sensor_msgs/msg/Image', 'sensor_msgs/msg/CompressedImage')
 
@@ -132,7 +134,9 @@ def write_bag(
 
     Args:
         path: Bag folder to create (must not exist).
-        frames: ``(stamp_ns, (H, W, 3) uint8 BGR image, box or None)`` in time order.
+        frames: ``(stamp_ns, (H, W, 3) uint8 BGR image, box or None)`` in time order, each
+            with a fourth item, its registered ``(H, W) uint16`` depth image in millimetres
+            (``16UC1`` on :data:`DEPTH_TOPIC`), when the bag is an RGB-D camera's.
         compressed: Record JPEG ``CompressedImage`` on :data:`COMPRESSED_CAMERA_TOPIC`
             (small bags) instead of raw bgr8 ``Image`` on :data:`CAMERA_TOPIC`.
         storage: ``mcap`` or ``sqlite3``.
@@ -154,8 +158,23 @@ def write_bag(
         truth = writer.add_connection(
             ground_truth_topic(target), 'geometry_msgs/msg/PolygonStamped', typestore=TYPESTORE
         )
-        for stamp_ns, image, box in frames:
+        depth_connection = None
+        for stamp_ns, image, box, *depth in frames:
             header = _header(stamp_ns)
+            if depth:
+                if depth_connection is None:
+                    depth_connection = writer.add_connection(DEPTH_TOPIC, 'sensor_msgs/msg/Image', typestore=TYPESTORE)
+                millimetres = np.ascontiguousarray(depth[0], dtype=np.uint16)
+                depth_msg = types['sensor_msgs/msg/Image'](
+                    header=header,
+                    height=millimetres.shape[0],
+                    width=millimetres.shape[1],
+                    encoding='16UC1',
+                    is_bigendian=0,
+                    step=millimetres.shape[1] * 2,
+                    data=millimetres.reshape(-1).view(np.uint8),
+                )
+                writer.write(depth_connection, stamp_ns, TYPESTORE.serialize_cdr(depth_msg, 'sensor_msgs/msg/Image'))
             height, width = image.shape[:2]
             if compressed:
                 ok, encoded = cv2.imencode('.jpg', image, [cv2.IMWRITE_JPEG_QUALITY, jpeg_quality])
@@ -188,7 +207,7 @@ def write_bag(
 
 def write_scene_bag(spec: SceneSpec, path: str | Path, **options: object) -> Path:
     """Render ``spec`` and record it with :func:`write_bag` (same options)."""
-    frames = ((f.stamp_ns, f.image, f.box) for f in render_scene(spec))
+    frames = ((f.stamp_ns, f.image, f.box, *([] if f.depth is None else [f.depth])) for f in render_scene(spec))
     return write_bag(path, frames, target=spec.target, **options)  # type: ignore[arg-type]
 
 

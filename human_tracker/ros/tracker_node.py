@@ -38,10 +38,11 @@ from human_tracker.ros.image_conversion import ImageConversionError, array_to_im
 from human_tracker.ros.markers import cleared_markers, target_markers
 from human_tracker.ros.stage import DEFERRED, ImageStage, ParameterSpec, spin_node, stamp_ns
 from human_tracker.vision.camera import POSITION_NOISE, metric_positions, position_covariance, undistort_pixels
+from human_tracker.vision.depth import depth_image_to_metres, region_depth
 from human_tracker.vision.resolution import same_frame
 from human_tracker.vision.target import LOST, TargetParameters, TargetResult, TargetTracker, parameters_for
 from human_tracker.vision.templates import make_template
-from human_tracker.vision.tracker import TrackerParameters, check_box_in_image
+from human_tracker.vision.tracker import TrackerParameters, box_from_state, check_box_in_image
 
 __all__ = ['FILTER_PARAMETERS', 'TARGET_PARAMETERS', 'TrackerNode', 'main']
 
@@ -161,6 +162,9 @@ _MOTION_INPUTS = ('none', 'foreground', 'motion')
 _REMEMBERED_STAMPS = 1000  # frames whose arrival is remembered (33 s at 30 Hz)
 # Typical adult widths of the reference regions, metres: head (ear to ear) and open hand.
 _TARGET_WIDTHS = {'head': 0.16, 'hand': 0.18}
+# How far behind its visible surface the target's centre lies, metres: a head is about 0.2 m
+# deep and the middle of the face about 8 cm in front of its centre; a hand is flat.
+_SURFACE_TO_CENTRE = {'head': 0.08, 'hand': 0.01}
 
 
 class TrackerNode(ImageStage):
@@ -283,10 +287,26 @@ class TrackerNode(ImageStage):
         self.create_subscription(RegionOfInterest, 'init_roi', self._on_init_roi, RESULT_QOS)
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.use_camera_info()
-        # The mask topics each frame waits for; a pipeline hands the masks over with the frames.
+        depth_input = declare(
+            self,
+            'depth_input',
+            False,
+            'Subscribe depth (registered to the image, 16UC1 mm or 32FC1 m): the distance from it, not from the scale.',
+            read_only=True,
+        )
+        self.surface_to_centre = declare(
+            self,
+            'surface_to_centre',
+            _SURFACE_TO_CENTRE.get(target, 0.0),
+            "Metres from the target's visible surface (what depth_input measures) back to its centre.",
+            low=0.0,
+            high=1.0,
+        )
+        # The mask topics each frame waits for; a pipeline hands the masks over with the frames,
+        # but not the depth image.
         topics = [self.motion_input] if self.motion_input != 'none' else []
         topics += ['skin'] if skin_input else []
-        self.mask_topics = topics if subscribe_image else []
+        self.mask_topics = (topics if subscribe_image else []) + (['depth'] if depth_input else [])
         self.masks: dict[str, OrderedDict[int, np.ndarray]] = {topic: OrderedDict() for topic in self.mask_topics}
         self.unmatched = dict.fromkeys(self.mask_topics, 0)
         # Frames a cue stage received but this node never did (lost on the way to it), told
@@ -301,6 +321,8 @@ class TrackerNode(ImageStage):
         )
         for topic in self.mask_topics:
             self.create_subscription(Image, topic, lambda msg, topic=topic: self._on_mask(topic, msg), mask_qos)
+        self.frames_without_depth_reading = 0
+        self.last_distance: float | None = None  # measured on the last frame published
         if self.mask_topics:
             self.create_timer(0.02, self._drain, clock=self.steady_clock)
         self.start_problem: str | None = None
@@ -367,6 +389,14 @@ class TrackerNode(ImageStage):
             self.get_logger().warn(f'{topic} mask rejected: {err}', throttle_duration_sec=5.0)
             return
         masks = self.masks[topic]
+        if topic == 'depth':
+            if mask.ndim != 2 or mask.dtype not in (np.uint16, np.float32):
+                self.counters.reject('depth_encoding')
+                self.get_logger().warn(
+                    f'depth image rejected: {msg.encoding}, not 16UC1 (mm) or 32FC1 (m)', throttle_duration_sec=5.0
+                )
+                return
+            mask = depth_image_to_metres(mask)
         masks[stamp_ns(msg.header)] = mask if mask.ndim == 2 else mask[..., 0]
         while len(masks) > 4 * self.max_pending:
             masks.popitem(last=False)
@@ -376,7 +406,7 @@ class TrackerNode(ImageStage):
         """Track held frames in order, each with its masks, or without those that waited too long."""
         now = time.monotonic()
         while self.pending:
-            stamp, arrived, image, header = self.pending[0]
+            stamp, arrived, image, header, given = self.pending[0]
             complete = all(stamp in self.masks[topic] for topic in self.mask_topics)
             if not complete and now - arrived < self.match_timeout and len(self.pending) <= self.max_pending:
                 return
@@ -388,9 +418,9 @@ class TrackerNode(ImageStage):
                     f'frame tracked without its {topic} mask (none within {self.match_timeout} s)',
                     throttle_duration_sec=5.0,
                 )
-            motion = found.get(self.motion_input)
+            cues = {**given, **found}
             start = time.perf_counter()
-            self.guarded(self.track, image, header, motion, found.get('skin'))
+            self.guarded(self.track, image, header, cues.get(self.motion_input), cues.get('skin'), cues.get('depth'))
             self.timer_stats.took(time.perf_counter() - start)
         lost = set()
         oldest_known = next(iter(self.received_stamps), None)
@@ -412,13 +442,19 @@ class TrackerNode(ImageStage):
     ) -> object:
         """Track on one frame: now when no mask is expected (or they are given), else once they arrive."""
         if self.mask_topics:
-            self.pending.append((stamp_ns(header), time.monotonic(), image, header))
+            given = {self.motion_input: motion, 'skin': skin}
+            self.pending.append((stamp_ns(header), time.monotonic(), image, header, given))
             self._drain()
             return DEFERRED
         return self.track(image, header, motion, skin)
 
     def track(
-        self, image: np.ndarray, header: Any, motion: np.ndarray | None, skin: np.ndarray | None = None
+        self,
+        image: np.ndarray,
+        header: Any,
+        motion: np.ndarray | None,
+        skin: np.ndarray | None = None,
+        depth: np.ndarray | None = None,
     ) -> TargetResult | None:
         """Run the tracker on one frame and publish what it found under ``header``."""
         stamp = stamp_ns(header)
@@ -434,6 +470,7 @@ class TrackerNode(ImageStage):
         size = image.shape[:2]
         motion = self._of_frame(motion, size, 'mask', 'mask_size')
         skin = self._of_frame(skin, size, 'skin labels', 'skin_size')
+        depth = self._of_frame(depth, size, 'depth image', 'depth_size')
         if self.requested_box is not None:
             box, self.requested_box = self.requested_box, None
             try:
@@ -464,7 +501,9 @@ class TrackerNode(ImageStage):
             )
         self.counters.processed += 1
         if result.tracking:
-            self._publish(result, header, size, interval)
+            self._publish(result, header, size, interval, depth)
+        else:
+            self.last_distance = None
         if self.markers_pub.get_subscription_count() > 0:
             self._publish_markers(result, header, size)
         if self.debug_pub.get_subscription_count() > 0:
@@ -501,15 +540,24 @@ class TrackerNode(ImageStage):
         )
         return None
 
-    def _publish(self, result: TargetResult, header: Any, shape: tuple[int, ...], interval: float) -> None:
-        """The pose and contour; the velocity too when the frame before is ``interval`` s back."""
+    def _publish(
+        self, result: TargetResult, header: Any, shape: tuple[int, ...], interval: float, depth: np.ndarray | None
+    ) -> None:
+        """The pose and contour; the velocity too when the frame before is ``interval`` s back.
+        With a ``depth`` image (metres) the distance is its readings' in the target's region."""
         estimate = result.estimate
         particles, previous = self.tracker.particles, self.tracker.previous_particles
         assert estimate is not None and particles is not None and previous is not None
         k, distortion = self.lens(shape[1], shape[0], self.image_rectified)
+        measured = None
+        if depth is not None:
+            measured = region_depth(depth, box_from_state(estimate.state, self.template), shape[:2])
+            if measured is None:
+                self.frames_without_depth_reading += 1
+        distance, spread = (None, None) if measured is None else (measured[0] + self.surface_to_centre, measured[1])
         camera = (self.template, k, self.target_width, distortion)
-        position = metric_positions(estimate.state, *camera)
-        cloud = metric_positions(particles, *camera)
+        position = metric_positions(estimate.state, *camera, depth=distance)
+        cloud = metric_positions(particles, *camera, depth=distance)
         pose = PoseWithCovarianceStamped()
         pose.header = header
         pose.pose.pose.position.x, pose.pose.pose.position.y, pose.pose.pose.position.z = (float(v) for v in position)
@@ -518,16 +566,19 @@ class TrackerNode(ImageStage):
         pose.pose.pose.orientation.w = float(np.cos(theta / 2.0))
         covariance = np.zeros((6, 6))
         covariance[:3, :3] = position_covariance(
-            cloud, position, estimate.confidence, self.target_width, tuple(self.position_noise)
+            cloud, position, estimate.confidence, self.target_width, tuple(self.position_noise), spread
         )
         covariance[3, 3] = covariance[4, 4] = _UNKNOWN_VARIANCE
         covariance[5, 5] = estimate.covariance[3, 3]
         pose.pose.covariance = covariance.reshape(-1).tolist()
         self.pose_pub.publish(pose)
+        # Distances of the same kind on both frames: measured on both, or both from the scale.
+        previous_distance, self.last_distance = self.last_distance, distance
         if interval > 0:
-            self.velocity_pub.publish(
-                _velocity(header, cloud, metric_positions(previous, *camera), previous, particles, interval)
-            )
+            both = distance is not None and previous_distance is not None
+            now = cloud if both or distance is None else metric_positions(particles, *camera)
+            before = metric_positions(previous, *camera, depth=previous_distance if both else None)
+            self.velocity_pub.publish(_velocity(header, now, before, previous, particles, interval))
         contour = PolygonStamped()
         contour.header = header
         contour.polygon.points = [Point32(x=float(x), y=float(y), z=0.0) for x, y in estimate.contour]
@@ -595,6 +646,7 @@ class TrackerNode(ImageStage):
             'frames_never_received': self.frames_never_received,
             'frames_motion_set_aside': self.frames_motion_set_aside,
             'frames_pending': len(self.pending),
+            'frames_without_depth_reading': self.frames_without_depth_reading,
         }
         if self.start_problem is not None:
             extra['cannot_start'] = self.start_problem

@@ -6,6 +6,7 @@ person stands by and waves an open hand in front of the room, the face in view. 
 hands are drawn from primitives (ellipses, polygons, thick lines for the fingers), not from
 the tracker's templates, so a template only approximates the silhouette, as on real video.
 Everything random comes from one seeded generator: the same spec gives the same frames.
+With ``depth``, each frame also has a depth image registered to it, as an RGB-D camera gives.
 """
 
 from __future__ import annotations
@@ -16,8 +17,15 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from human_tracker.vision.camera import default_camera_matrix
+
 __all__ = ['SceneSpec', 'SceneFrame', 'render_scene', 'SCENES']
 
+HEAD_WIDTH = 0.16
+"""A head's physical width, metres: a head ``s`` pixels wide is ``fx HEAD_WIDTH / s`` away
+(the default camera's fx)."""
+HEAD_DEPTH = 0.2
+"""A head's depth (nose to the back of the head), metres."""
 _HEAD_HALF_WIDTH = 0.5
 _HEAD_HALF_HEIGHT = 0.62
 # Neck and shoulders below a head one unit wide, centred on the origin (x right, y down).
@@ -63,6 +71,7 @@ class SceneSpec:
         max_rotation: Peak in-plane rotation θ, radians.
         pauses: Frame ranges ``[start, end)`` in which the person stands still.
         absent: Frame ranges ``[start, end)`` in which the person is out of view.
+        depth: Also render a depth image per frame (head scenes).
     """
 
     name: str
@@ -84,6 +93,7 @@ class SceneSpec:
     max_rotation: float = 0.15
     pauses: tuple[tuple[int, int], ...] = ()
     absent: tuple[tuple[int, int], ...] = ()
+    depth: bool = False
 
 
 @dataclass
@@ -98,6 +108,8 @@ class SceneFrame:
         state: ``(4,)`` true [x, y, s, θ] of the target (centre pixels, width pixels, radians).
         box: ``(x, y, w, h)`` pixels, axis-aligned box of the head or hand, None when absent.
         skin: ``(H, W) bool``, True on the pixels of the face and the hand (their true skin).
+        depth: ``(H, W) uint16`` millimetres (0: no reading) registered to ``image``, with
+            ``SceneSpec.depth``.
     """
 
     index: int
@@ -107,6 +119,7 @@ class SceneFrame:
     state: np.ndarray
     box: tuple[float, float, float, float] | None = field(default=None)
     skin: np.ndarray | None = field(default=None, repr=False)
+    depth: np.ndarray | None = field(default=None, repr=False)
 
 
 # Scenes first recorded at this time, so stamps are realistic and identical run to run.
@@ -313,6 +326,34 @@ def _hand_trajectory(spec: SceneSpec, motion_time: float) -> np.ndarray:
     return np.array([cx, cy, s, theta])
 
 
+def _depth_image(spec: SceneSpec, state: np.ndarray | None, rng: np.random.Generator) -> np.ndarray:
+    """What an RGB-D camera sees, millimetres: the room from 3.5 m (top) to 2.5 m (bottom: the
+    floor comes closer), the person (``state``, None when away) with the head's centre at the
+    distance its width says, noise growing with the square of the distance (σ = 1.5 mm at 1 m), and holes: 3 % of the
+    pixels, and half of the hair's (it absorbs the projector's light)."""
+    depth = np.repeat(np.linspace(3.5, 2.5, spec.height, dtype=np.float64)[:, None], spec.width, axis=1)
+    hair = np.zeros(depth.shape, np.uint8)
+    if state is not None:
+        distance = default_camera_matrix(spec.width, spec.height)[0, 0] * HEAD_WIDTH / state[2]
+        person = np.zeros(depth.shape, np.uint8)
+        cv2.fillPoly(person, [np.round(_to_image(_BODY, state)).astype(np.int32)], 1)
+        depth[person > 0] = distance + 0.05  # the shoulders a little behind the face
+        head = np.zeros(depth.shape, np.uint8)
+        cv2.fillPoly(head, [_head_polygon(state)], 1)
+        # The face bulges towards the camera: an ellipsoid HEAD_DEPTH / 2 deep around the head's
+        # centre, which lies `distance` away.
+        x, y, s, theta = state
+        rows, columns = np.nonzero(head)
+        across = ((columns - x) / (_HEAD_HALF_WIDTH * s)) ** 2 + ((rows - y) / (_HEAD_HALF_HEIGHT * s)) ** 2
+        depth[rows, columns] = distance - 0.5 * HEAD_DEPTH * np.sqrt(np.clip(1.0 - across, 0.0, 1.0))
+        axes = (int(round(_HEAD_HALF_WIDTH * s)), int(round(_HEAD_HALF_HEIGHT * s)))
+        cv2.ellipse(hair, (int(round(x)), int(round(y))), axes, float(np.degrees(theta)), 195, 345, 1, -1)
+    depth += rng.normal(0.0, 1.0, depth.shape) * 0.0015 * depth**2
+    holes = (rng.random(depth.shape) < 0.03) | ((hair > 0) & (rng.random(depth.shape) < 0.5))
+    depth[holes] = 0.0
+    return np.round(depth * 1000.0).astype(np.uint16)
+
+
 def _box(points: np.ndarray) -> tuple[float, float, float, float]:
     x0, y0 = points.min(axis=0)
     x1, y1 = points.max(axis=0)
@@ -330,6 +371,7 @@ def render_scene(spec: SceneSpec) -> Iterator[SceneFrame]:
     hand_scene = spec.target == 'hand'
     sleeve = _clothes(rng) if hand_scene else shirt
     noise_rng = np.random.default_rng(spec.seed + 1)
+    depth_rng = np.random.default_rng(spec.seed + 2)  # its own: the colour frames stay as without depth
     motion_time = 0.0
     for index in range(spec.num_frames):
         if index > 0 and not _in_ranges(index, spec.pauses):
@@ -357,7 +399,10 @@ def render_scene(spec: SceneSpec) -> Iterator[SceneFrame]:
         noisy = frame.astype(np.float32) + noise_rng.normal(0, spec.noise_sigma, size=frame.shape)
         image = np.clip(noisy, 0, 255).astype(np.uint8)
         stamp_ns = _EPOCH_NS + int(round(index * 1e9 / spec.fps))
-        yield SceneFrame(index, stamp_ns, image, visible, state, box, skin_mask > 0)
+        depth = None
+        if spec.depth:
+            depth = _depth_image(spec, state if visible and not hand_scene else None, depth_rng)
+        yield SceneFrame(index, stamp_ns, image, visible, state, box, skin_mask > 0, depth)
 
 
 SCENES: dict[str, SceneSpec] = {

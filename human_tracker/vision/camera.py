@@ -52,6 +52,7 @@ def metric_positions(
     camera_matrix: np.ndarray,
     target_width: float,
     distortion: np.ndarray | None = None,
+    depth: float | None = None,
 ) -> np.ndarray:
     """Optical-frame positions (metres) of the reference-region centres of ``states``.
 
@@ -61,6 +62,8 @@ def metric_positions(
         camera_matrix: ``(3, 3)`` intrinsics K.
         target_width: Physical width of the reference region (head or hand), metres.
         distortion: The lens's distortion coefficients D (None: none, or a rectified image).
+        depth: The target's measured distance Z (metres, e.g. from a depth image), used instead
+            of the one from its width.
 
     Returns:
         ``(P, 3)`` or ``(3,)`` positions X, Y, Z in metres.
@@ -73,7 +76,8 @@ def metric_positions(
     cos, sin = np.cos(states[:, 3]), np.sin(states[:, 3])
     u = states[:, 0] + states[:, 2] * (cos * centre[0] - sin * centre[1])
     v = states[:, 1] + states[:, 2] * (sin * centre[0] + cos * centre[1])
-    depth = camera_matrix[0, 0] * target_width / np.maximum(states[:, 2] * rw, 1e-6)
+    if depth is None:
+        depth = camera_matrix[0, 0] * target_width / np.maximum(states[:, 2] * rw, 1e-6)
     pixels = undistort_pixels(np.stack([u, v], axis=1), camera_matrix, distortion)
     positions = back_project(pixels, depth, camera_matrix)
     return positions[0] if single else positions
@@ -110,6 +114,7 @@ def position_covariance(
     confidence: float,
     target_width: float,
     position_noise: tuple[float, float] = POSITION_NOISE,
+    depth_spread: float | None = None,
 ) -> np.ndarray:
     """``(3, 3)`` covariance (m²) of a pose at ``position`` (metres, optical frame).
 
@@ -120,8 +125,10 @@ def position_covariance(
     of ``target_width`` (metres) times ``a + b (1 - confidence)`` (``position_noise``;
     ``confidence``: the share of contour points on an edge) is added across the optical axis,
     and the same share of the depth along it (depth comes from the width, which is off by
-    as much).
+    as much), or, for a depth measured in a depth image, the readings' ``depth_spread``
+    (metres).
     """
     share = position_noise[0] + position_noise[1] * (1.0 - float(np.clip(confidence, 0.0, 1.0)))
-    lateral, along = share * target_width, share * float(position[2])
+    lateral = share * target_width
+    along = share * float(position[2]) if depth_spread is None else depth_spread
     return np.cov(np.asarray(cloud).T) + np.diag([lateral**2, lateral**2, along**2])

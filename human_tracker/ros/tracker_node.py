@@ -262,7 +262,8 @@ class TrackerNode(ImageStage):
 
         self.last_tracked_ns = -1
         self.last_result: TargetResult | None = None
-        self.pending: deque[tuple[int, float, np.ndarray, Any]] = deque()
+        # Frames waiting for their masks: stamp, arrival, image, header, the cues handed over with it.
+        self.pending: deque[tuple[int, float, np.ndarray, Any, dict[str, np.ndarray | None]]] = deque()
 
         self.pose_pub = self.create_publisher(PoseWithCovarianceStamped, 'pose', RESULT_QOS)
         self.velocity_pub = self.create_publisher(TwistWithCovarianceStamped, 'velocity', RESULT_QOS)
@@ -381,6 +382,7 @@ class TrackerNode(ImageStage):
         for masks in self.masks.values():
             masks.clear()
         self.last_tracked_ns = -1
+        self.last_distance = None
 
     def _on_mask(self, topic: str, msg: Image) -> None:
         try:
@@ -593,7 +595,9 @@ class TrackerNode(ImageStage):
                 self.markers_shown = False
             return
         k, distortion = self.lens(shape[1], shape[0], self.image_rectified)
-        depth = float(metric_positions(estimate.state, self.template, k, self.target_width)[2])
+        depth = self.last_distance  # this frame's measured distance, when it was published with one
+        if depth is None or not result.tracking:
+            depth = float(metric_positions(estimate.state, self.template, k, self.target_width)[2])
         contour = undistort_pixels(estimate.contour, k, distortion)
         markers = target_markers(header, contour, depth, k, kind=self.target, ident=0, status=result.status)
         self.markers_pub.publish(markers)

@@ -5,12 +5,15 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections.abc import Callable
+from typing import Any
 
 import cv2
 import numpy as np
 import pytest
 import rclpy
 from conftest import REPO
+from lifecycle_msgs.msg import Transition
+from lifecycle_msgs.srv import ChangeState
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.parameter import Parameter, parameter_value_to_python
@@ -509,3 +512,68 @@ def test_the_distance_comes_from_a_registered_depth_image(tmp_path) -> None:
         )
     assert errors['tracker_node', True] < 0.05
     assert errors['pipeline', True] < 0.05
+
+
+def _change_state(node: Node, executor: Any, target: str, transition: int) -> bool:
+    """Ask ``target``'s lifecycle interface for ``transition``; whether it succeeded."""
+    client = node.create_client(ChangeState, f'{target}/change_state')
+    assert client.wait_for_service(timeout_sec=30.0)
+    answer = client.call_async(ChangeState.Request(transition=Transition(id=transition)))
+    executor.spin_until_future_complete(answer, timeout_sec=10.0)
+    node.destroy_client(client)
+    return answer.result() is not None and answer.result().success
+
+
+def test_a_managed_tracker_works_only_while_active(tmp_path, head_bag) -> None:
+    """tracker_node with managed:=true waits unconfigured: the frames of a replay are dropped
+    unconverted (counted inactive) and nothing is published; configured and activated, it
+    tracks the next replay from the start box; deactivated, it drops frames again."""
+    frames = list(read_frames(head_bag))[:20]
+    bag = write_bag_for_test(tmp_path, frames)
+    env = environment()
+    args = node_arguments(COMPRESSED_CAMERA_TOPIC, True, frames[0].ground_truth) + ['-p', 'managed:=true']
+    tracker = NodeProcess('human_tracker.ros.tracker_node', args, env, tmp_path / 'tracker.log')
+
+    def replay(name: str) -> None:
+        player = NodeProcess(
+            'human_tracker.ros.bag_play',
+            [str(bag), '--rate', '4.0', '--wait-for-subscribers', COMPRESSED_CAMERA_TOPIC, '1'],
+            env,
+            tmp_path / f'{name}.log',
+        )
+        assert player.start().wait(60.0) == 0, player.output()
+
+    def diagnostics(collector: PoseCollector, executor: Any, received: int) -> dict[str, str]:
+        """The tracker's diagnostics once they count ``received`` frames (or after 15 s)."""
+        deadline = time.monotonic() + 15.0
+        values = collector.spin_until_diagnostics(executor, '/tracker_node', 5.0)
+        while values.get('frames_received') != str(received) and time.monotonic() < deadline:
+            values = collector.spin_until_diagnostics(executor, '/tracker_node', 5.0)
+        return values
+
+    with collecting() as (collector, executor):
+        try:
+            tracker.start()
+            assert collector.wait_for_publisher(executor, 60.0), tracker.output()
+            replay('inactive')
+            inactive = diagnostics(collector, executor, len(frames))
+            assert not collector.poses
+            assert _change_state(collector, executor, '/tracker_node', Transition.TRANSITION_CONFIGURE)
+            assert _change_state(collector, executor, '/tracker_node', Transition.TRANSITION_ACTIVATE)
+            replay('active')
+            deadline = time.monotonic() + 20.0
+            while len(collector.poses) < len(frames) and time.monotonic() < deadline:
+                executor.spin_once(timeout_sec=0.05)
+            active = diagnostics(collector, executor, 2 * len(frames))
+            assert _change_state(collector, executor, '/tracker_node', Transition.TRANSITION_DEACTIVATE)
+            poses = len(collector.poses)
+            replay('deactivated')
+            deactivated = diagnostics(collector, executor, 3 * len(frames))
+        finally:
+            assert tracker.stop() == 0
+    print(f'inactive: {inactive}\nactive: {active}\ndeactivated: {deactivated}')
+    assert inactive['frames_inactive'] == str(len(frames)) and inactive['frames_processed'] == '0'
+    assert inactive['state'] == 'WAITING'
+    assert poses == len(frames) and active['frames_processed'] == str(len(frames))
+    assert deactivated['frames_inactive'] == str(2 * len(frames))
+    assert deactivated['frames_processed'] == str(len(frames)) and len(collector.poses) == poses

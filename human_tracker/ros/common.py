@@ -151,11 +151,15 @@ def image_qos(node: Node) -> QoSProfile:
 
 @dataclass
 class FrameCounters:
-    """Where every input frame went: each one is processed, skipped or rejected."""
+    """Where every input frame went: each one is processed, skipped or rejected.
+
+    ``inactive`` counts the skipped frames that arrived while a managed node was not active.
+    """
 
     received: int = 0
     processed: int = 0
     skipped: int = 0
+    inactive: int = 0
     rejected: int = 0
     rejected_reasons: dict[str, int] = field(default_factory=dict)
 
@@ -170,6 +174,7 @@ class FrameCounters:
             'received': self.received,
             'processed': self.processed,
             'skipped': self.skipped,
+            'inactive': self.inactive,
             'rejected': self.rejected,
         }
 

@@ -29,6 +29,7 @@ from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import CameraInfo, CompressedImage, Image
@@ -81,11 +82,20 @@ class ParameterSpec:
     runtime: bool = True
 
 
-class ImageStage(Node):
-    """A node that processes camera frames; subclasses implement :meth:`handle_frame`."""
+class ImageStage(LifecycleNode):
+    """A node that processes camera frames; subclasses implement :meth:`handle_frame`.
+
+    Every stage is a lifecycle node. By default it configures and activates itself at once and
+    runs like a plain node; with ``managed: true`` it waits, unconfigured, for a lifecycle
+    manager (``~/change_state``: configure, activate, deactivate, cleanup). While not active
+    it drops each frame on arrival, before any conversion (counted as skipped and
+    ``inactive``); cleanup forgets what it learnt (the target, the background). In a pipeline
+    the camera subscriber is the input: managing it manages the pipeline.
+    """
 
     def __init__(self, name: str, *, subscribe_image: bool = True, **kwargs: Any) -> None:
         super().__init__(name, **kwargs)
+        self.active = False
         self.counters = FrameCounters()
         self.timer_stats = StageTimer()
         self.last_stamp_ns = -1
@@ -124,6 +134,16 @@ class ImageStage(Node):
         # Fires once the executor spins, that is after every subclass has finished building.
         self._ready_timer = self.create_timer(0.01, self._become_ready, clock=self.steady_clock)
         self.add_on_set_parameters_callback(self._on_set_parameters)
+        managed = declare(
+            self,
+            'managed',
+            False,
+            'Wait, unconfigured, for a lifecycle manager (configure, activate) instead of running at once.',
+            read_only=True,
+        )
+        if not managed:
+            self.trigger_configure()
+            self.trigger_activate()
         if subscribe_image:
             transport = declare(
                 self,
@@ -193,8 +213,34 @@ class ImageStage(Node):
             self.get_logger().info(f'parameters changed: {changes}')
         return SetParametersResult(successful=True)
 
+    def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self.active = True
+        self.get_logger().info('active')
+        return super().on_activate(state)
+
+    def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self.active = False
+        self.get_logger().info('inactive: frames are dropped on arrival')
+        return super().on_deactivate(state)
+
+    def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self.reset_state()
+        self.last_stamp_ns = -1
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self.active = False
+        return TransitionCallbackReturn.SUCCESS
+
     def on_image(self, msg: Image | CompressedImage) -> None:
-        """Convert one image message and process it; a bad frame is counted and logged, never fatal."""
+        """Convert one image message and process it; a bad frame is counted and logged, never fatal.
+
+        While the node is not active the frame is counted and dropped, unconverted."""
+        if not self.active:
+            self.counters.received += 1
+            self.counters.skipped += 1
+            self.counters.inactive += 1
+            return
         try:
             image = message_to_bgr8(msg)
         except ImageConversionError as err:

@@ -53,9 +53,10 @@ from human_tracker.vision.camera import default_camera_matrix
 __all__ = ['DEFERRED', 'ParameterSpec', 'ImageStage', 'run_nodes', 'spin_node', 'stamp_ns']
 
 DEFERRED = object()
+"""Returned by ``handle_frame`` for a frame held for later (it is timed when processed)."""
+
 # camera_info's distortion models whose coefficients are OpenCV's (k1, k2, p1, p2, k3, ...).
 _OPENCV_DISTORTION_MODELS = ('plumb_bob', 'rational_polynomial')
-"""Returned by ``handle_frame`` for a frame held for later (it is timed when processed)."""
 
 
 def _plain(value: Any) -> Any:

@@ -121,6 +121,20 @@ def _polygon(stamp_ns: int, box: tuple[float, float, float, float] | None) -> ob
     )
 
 
+def _raw_image(header: object, pixels: np.ndarray, encoding: str) -> object:
+    """A rosbags ``sensor_msgs/Image`` of ``pixels`` (``(H, W)`` or ``(H, W, C)``, little-endian) under ``encoding``."""
+    pixels = np.ascontiguousarray(pixels)
+    return TYPESTORE.types['sensor_msgs/msg/Image'](
+        header=header,
+        height=pixels.shape[0],
+        width=pixels.shape[1],
+        encoding=encoding,
+        is_bigendian=0,
+        step=pixels.strides[0],
+        data=pixels.reshape(-1).view(np.uint8),
+    )
+
+
 def write_bag(
     path: str | Path,
     frames: Iterable[tuple[int, np.ndarray, Box | None]],
@@ -164,16 +178,7 @@ def write_bag(
             if depth:
                 if depth_connection is None:
                     depth_connection = writer.add_connection(DEPTH_TOPIC, 'sensor_msgs/msg/Image', typestore=TYPESTORE)
-                millimetres = np.ascontiguousarray(depth[0], dtype=np.uint16)
-                depth_msg = types['sensor_msgs/msg/Image'](
-                    header=header,
-                    height=millimetres.shape[0],
-                    width=millimetres.shape[1],
-                    encoding='16UC1',
-                    is_bigendian=0,
-                    step=millimetres.shape[1] * 2,
-                    data=millimetres.reshape(-1).view(np.uint8),
-                )
+                depth_msg = _raw_image(header, np.asarray(depth[0], dtype=np.uint16), '16UC1')
                 writer.write(depth_connection, stamp_ns, TYPESTORE.serialize_cdr(depth_msg, 'sensor_msgs/msg/Image'))
             height, width = image.shape[:2]
             if compressed:
@@ -184,15 +189,7 @@ def write_bag(
                     header=header, format='bgr8; jpeg compressed bgr8', data=encoded.reshape(-1)
                 )
             else:
-                msg = types['sensor_msgs/msg/Image'](
-                    header=header,
-                    height=height,
-                    width=width,
-                    encoding='bgr8',
-                    is_bigendian=0,
-                    step=width * 3,
-                    data=image.reshape(-1),
-                )
+                msg = _raw_image(header, image, 'bgr8')
             writer.write(camera, stamp_ns, TYPESTORE.serialize_cdr(msg, image_type))
             writer.write(
                 info,

@@ -44,12 +44,7 @@ class PoseCollector(Node):
         self.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics, _KEEP_ALL)
         self.create_subscription(PolygonStamped, 'contour', self._on_contour, _KEEP_ALL)
         self.velocities: dict[int, TwistWithCovarianceStamped] = {}
-        self.create_subscription(
-            TwistWithCovarianceStamped,
-            'velocity',
-            lambda msg: self.velocities.__setitem__(stamp_ns(msg.header), msg),
-            _KEEP_ALL,
-        )
+        self.create_subscription(TwistWithCovarianceStamped, 'velocity', self._on_velocity, _KEEP_ALL)
         self.statuses: list[dict[str, str]] = []
         self.create_subscription(DiagnosticArray, 'status', self._on_status, _LATCHED)
         self.markers: dict[int, MarkerArray] = {}
@@ -59,6 +54,9 @@ class PoseCollector(Node):
     def _on_pose(self, msg: PoseWithCovarianceStamped) -> None:
         self.poses[stamp_ns(msg.header)] = msg
         self.frame_ids.add(msg.header.frame_id)
+
+    def _on_velocity(self, msg: TwistWithCovarianceStamped) -> None:
+        self.velocities[stamp_ns(msg.header)] = msg
 
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
         for status in msg.status:

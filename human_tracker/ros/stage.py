@@ -312,7 +312,7 @@ class ImageStage(LifecycleNode):
 
     def intrinsics(self, width: int, height: int) -> np.ndarray:
         """K from ``camera_info``, or the documented default (60° pinhole) until one arrives."""
-        return self.camera_matrix if self.camera_matrix is not None else default_camera_matrix(width, height)
+        return self.lens(width, height, rectified=False)[0]
 
     def guarded(self, work: Callable[..., object], *args: Any, **kwargs: Any) -> object:
         """Run ``work``; an unexpected error is counted as a rejected frame and logged, never raised.

@@ -193,6 +193,13 @@ def _head_polygon(state: np.ndarray) -> np.ndarray:
     return cv2.ellipse2Poly((int(round(x)), int(round(y))), axes, int(round(np.degrees(theta))), 0, 360, 5)
 
 
+def _draw_hair(canvas: np.ndarray, state: np.ndarray, value: object, line: int) -> None:
+    """Fill the hair (the top of the head's ellipse) of the head at ``state`` with ``value``."""
+    x, y, s, theta = state
+    axes = (int(round(_HEAD_HALF_WIDTH * s)), int(round(_HEAD_HALF_HEIGHT * s)))
+    cv2.ellipse(canvas, (int(round(x)), int(round(y))), axes, float(np.degrees(theta)), 195, 345, value, -1, line)
+
+
 def _to_image(points: np.ndarray, state: np.ndarray) -> np.ndarray:
     x, y, s, theta = state
     c, si = np.cos(theta), np.sin(theta)
@@ -221,23 +228,13 @@ def _draw_person(
         targets.append((skin_mask, 255, cv2.LINE_8))
     hair_colour = (30 * gain, 35 * gain, 45 * gain)
     dark = (40 * gain, 40 * gain, 60 * gain)
-    x, y, _, theta = state
+    theta = state[3]
     features = _to_image(np.array([[-0.18, -0.05], [0.18, -0.05], [0.0, 0.3]]), state)
     mx, my = features[2]
     for canvas, skin_colour, line in targets:
         hair, feature = (hair_colour, dark) if canvas is image else (0, 0)
         cv2.fillPoly(canvas, [_head_polygon(state)], skin_colour, line)
-        cv2.ellipse(
-            canvas,
-            (int(round(x)), int(round(y))),
-            (int(round(_HEAD_HALF_WIDTH * s)), int(round(_HEAD_HALF_HEIGHT * s))),
-            float(np.degrees(theta)),
-            195,
-            345,
-            hair,
-            -1,
-            line,
-        )
+        _draw_hair(canvas, state, hair, line)
         for fx, fy in features[:2]:
             cv2.circle(canvas, (int(round(fx)), int(round(fy))), max(1, int(s * 0.05)), feature, -1, line)
         cv2.ellipse(
@@ -342,12 +339,11 @@ def _depth_image(spec: SceneSpec, state: np.ndarray | None, rng: np.random.Gener
         cv2.fillPoly(head, [_head_polygon(state)], 1)
         # The face bulges towards the camera: an ellipsoid HEAD_DEPTH / 2 deep around the head's
         # centre, which lies `distance` away.
-        x, y, s, theta = state
+        x, y, s, _ = state
         rows, columns = np.nonzero(head)
         across = ((columns - x) / (_HEAD_HALF_WIDTH * s)) ** 2 + ((rows - y) / (_HEAD_HALF_HEIGHT * s)) ** 2
         depth[rows, columns] = distance - 0.5 * HEAD_DEPTH * np.sqrt(np.clip(1.0 - across, 0.0, 1.0))
-        axes = (int(round(_HEAD_HALF_WIDTH * s)), int(round(_HEAD_HALF_HEIGHT * s)))
-        cv2.ellipse(hair, (int(round(x)), int(round(y))), axes, float(np.degrees(theta)), 195, 345, 1, -1)
+        _draw_hair(hair, state, 1, cv2.LINE_8)
     depth += rng.normal(0.0, 1.0, depth.shape) * 0.0015 * depth**2
     holes = (rng.random(depth.shape) < 0.03) | ((hair > 0) & (rng.random(depth.shape) < 0.5))
     depth[holes] = 0.0

@@ -608,7 +608,7 @@ class TargetTracker:
             estimate = self.filter.step(edges, likelihood_motion, likelihood_skin, appearance)
             self.weak_frames, initialised = 0, True
             # A head whose face was seen is the head only once a face is found on it again.
-            faced = p.proposals == 'faces' and self.detector is not None and self.face_relation is not None
+            faced = p.proposals == 'faces' and self.face_relation is not None  # set only by a detected face
             self.status = LOST if faced else TRACKING
         shown = tuple(tuple(v / self.scale for v in d.box) for d in detections or ())
         if estimate is None:

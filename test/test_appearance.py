@@ -19,7 +19,12 @@ from human_tracker.vision.appearance import (
 )
 from human_tracker.vision.boxes import BoxRelation
 from human_tracker.vision.faces import Detection, FaceDetector, face_detector_available
-from human_tracker.vision.proposals import draw_with_proposals, log_prior_density, log_proposal_density
+from human_tracker.vision.proposals import (
+    detection_log_likelihood,
+    draw_with_proposals,
+    log_prior_density,
+    log_proposal_density,
+)
 from human_tracker.vision.target import TRACKING, TargetParameters, TargetTracker
 from human_tracker.vision.templates import head_and_shoulders
 from human_tracker.vision.tracker import TrackEstimate
@@ -155,6 +160,36 @@ def test_importance_correction_and_shares() -> None:
         -0.5 * z_f @ z_f + 0.5 * z_g @ z_g - np.log(noise * [1, 1, 20, 1]).sum() + np.log(spread * [1, 1, 20, 1]).sum()
     )
     assert correction[70] == pytest.approx(by_hand)
+
+
+def test_detection_likelihood_by_hand() -> None:
+    detections = np.array([[0.0, 0.0, 10.0, 0.0], [100.0, 0.0, 20.0, 0.0]])
+    spread = np.array([2.0, 2.0, 0.1, 0.01])
+    states = np.array(
+        [
+            [0.0, 0.0, 10.0, 1.0],  # on the first detection; θ is not compared
+            [2.0, 2.0, 11.0, 0.0],  # z = (1, 1, 1) from the first: exp(-1.5)
+            [100.0, 4.0, 20.0, 0.0],  # z = (0, 2, 0) from the second (its s std is 2): exp(-2)
+            [50.0, 0.0, 15.0, 0.0],  # far from both: the floor
+        ]
+    )
+    floor = 0.01
+    expected = np.log(floor + (1 - floor) * np.array([1.0, np.exp(-1.5), np.exp(-2.0), 0.0]))
+    np.testing.assert_allclose(detection_log_likelihood(states, detections, spread, floor), expected)
+    assert np.all(detection_log_likelihood(states, detections, spread, 1.0) == 0.0)
+
+
+@pytest.mark.skipif(not face_detector_available(), reason='dlib is not installed')
+@pytest.mark.skipif(not (REAL / 'trellis').is_dir(), reason='real sequences absent')
+def test_face_detector_finds_a_face_in_shadow() -> None:
+    """trellis, frame 100: a face in shadow against the bright street, found after the local
+    contrast equalisation (dlib's HOG alone misses it)."""
+    image = cv2.imread(str(sorted((REAL / 'trellis' / 'img').iterdir())[100]))
+    truth = [float(v) for v in (REAL / 'trellis' / 'groundtruth.txt').read_text().split()[100].split(',')]
+    found = FaceDetector().detect(image, upsample=1)
+    assert found, 'no face found'
+    x, y, w, h = found[0].box
+    assert np.hypot(x + w / 2 - truth[0] - truth[2] / 2, y + h / 2 - truth[1] - truth[3] / 2) < 0.3 * truth[2]
 
 
 @pytest.mark.skipif(not face_detector_available(), reason='dlib is not installed')

@@ -71,6 +71,9 @@ FILTER_PARAMETERS = (
     ParameterSpec('importance_share', 'Share of particles drawn around detections with the f/g correction.', 0.0, 1.0),
     ParameterSpec('restart_share', 'Share of particles drawn around detections without correction.', 0.0, 1.0),
     ParameterSpec('proposal_spread', 'Std of particles drawn around a detection: x, y (px), s (fraction), θ (rad).'),
+    ParameterSpec(
+        'detection_floor', 'Likelihood of a state far from every face found, relative to one on a face.', 1e-9, 1.0
+    ),
     ParameterSpec('min_scale', 'Smallest scale s: reference region width in pixels.', 1.0, 1e5),
     ParameterSpec('max_scale', 'Largest scale s: reference region width in pixels.', 1.0, 1e5),
     ParameterSpec('seed', 'Seed of the particle filter (replays are reproducible).', 0, 2**31 - 1, runtime=False),

@@ -753,7 +753,11 @@ class TargetTracker:
         correction, and a lost hand comes back through a hypothesis."""
         if self.parameters.proposals != 'skin':
             return {}
-        return {'detection_spread': 2.0 * np.asarray(self.filter.parameters.initial_spread), 'restart_share': 0.0}
+        return {
+            'detection_spread': 2.0 * np.asarray(self.filter.parameters.initial_spread),
+            'restart_share': 0.0,
+            'detection_floor': 1.0,
+        }
 
     def _detect_face_to_avoid(self, grey: np.ndarray) -> list[Detection]:
         """Faces for ``avoid_faces``: around the last face found for ``SEARCH_AFTER_MISSES`` runs

@@ -23,7 +23,7 @@ from human_tracker.vision.particle_filter import (
     weighted_covariance,
     weighted_estimate,
 )
-from human_tracker.vision.proposals import draw_with_proposals
+from human_tracker.vision.proposals import detection_log_likelihood, draw_with_proposals
 from human_tracker.vision.templates import ContourTemplate, transform_points
 
 __all__ = ['TrackerParameters', 'TrackEstimate', 'ContourTracker', 'state_from_box', 'box_from_state']
@@ -58,7 +58,11 @@ class TrackerParameters:
             :mod:`~human_tracker.vision.proposals`).
         restart_share: Share drawn around detections without correction.
         proposal_spread: Standard deviations of the particles drawn around a detection,
-            same units as process_noise.
+            same units as process_noise; also the width of a detection's likelihood term.
+        detection_floor: Likelihood of a state far from every detection relative to one on a
+            detection, on frames with detections
+            (:func:`~human_tracker.vision.proposals.detection_log_likelihood`); 1 leaves the
+            detections out of the likelihood (they then only draw particles).
         seed: Seed of the filter's random generator (a replay is then reproducible).
     """
 
@@ -78,6 +82,7 @@ class TrackerParameters:
     importance_share: float = 0.2
     restart_share: float = 0.05
     proposal_spread: tuple[float, float, float, float] = (6.0, 6.0, 0.08, 0.05)
+    detection_floor: float = 0.001
     seed: int = 0
 
     def validate(self) -> None:
@@ -111,6 +116,7 @@ class TrackerParameters:
                 len(self.proposal_spread) == 4 and min(self.proposal_spread) > 0,
                 f'proposal_spread must be 4 values > 0, got {self.proposal_spread}',
             ),
+            (0.0 < self.detection_floor <= 1.0, f'detection_floor must be in (0, 1], got {self.detection_floor}'),
             (
                 min(self.importance_share, self.restart_share) >= 0 and self.importance_share + self.restart_share <= 1,
                 f'importance_share and restart_share must be >= 0 with a sum <= 1, got '
@@ -268,6 +274,7 @@ class ContourTracker:
         detections: np.ndarray | None = None,
         detection_spread: np.ndarray | None = None,
         restart_share: float | None = None,
+        detection_floor: float | None = None,
     ) -> TrackEstimate:
         """Predict, weigh against ``edges`` (and ``motion``, ``skin``, ``appearance``), estimate, resample.
 
@@ -282,6 +289,8 @@ class ContourTracker:
             detection_spread: ``(4,)`` standard deviations of those draws, as
                 ``proposal_spread`` (its value when None).
             restart_share: Share drawn without correction (``restart_share`` when None).
+            detection_floor: The detections' likelihood term's floor (``detection_floor``
+                when None; 1: the detections only draw particles).
 
         Returns:
             The estimate for this frame.
@@ -316,7 +325,14 @@ class ContourTracker:
         fit = self.fit(edges, self.particles, motion, skin)
         distances = None if appearance is None else appearance(self.particles)
         log_weights = self.log_weights(fit, distances)
-        weights = normalised_weights(log_weights if correction is None else log_weights + correction)
+        if correction is not None:
+            log_weights += correction
+            floor = params.detection_floor if detection_floor is None else detection_floor
+            if floor < 1.0:
+                log_weights += detection_log_likelihood(
+                    self.particles, np.asarray(detections, dtype=np.float64), np.asarray(params.proposal_spread), floor
+                )
+        weights = normalised_weights(log_weights)
         state = weighted_estimate(self.particles, weights)
         estimate = TrackEstimate(
             state=state,

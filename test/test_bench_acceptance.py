@@ -34,6 +34,27 @@ def test_bars_are_applied_to_the_measured_figures() -> None:
             {'sequence': 'hgr', 'method': 'pixels', 'precision': 0.85, 'recall': 0.91, 'f1': 0.88},
             {'sequence': 'x', 'method': 'cells', 'recall': 0.1},
         ],
+        'latency': [
+            {
+                'layout': 'pipeline',
+                'rate': '30 Hz',
+                'frames_sent': 240,
+                'poses_received': 240,
+                'latency_ms_median': 9.0,
+                'latency_ms_p95': 18.0,
+                'above_processing_ms': 0.8,
+            },
+            {'layout': 'pipeline', 'rate': 'full speed', 'frames_sent': 240, 'poses_received': 200},  # no bar
+            {
+                'layout': 'separate',
+                'rate': '30 Hz',
+                'frames_sent': 240,
+                'poses_received': 239,
+                'latency_ms_median': 4.0,
+                'latency_ms_p95': 12.0,
+                'above_processing_ms': 2.0,
+            },
+        ],
     }
     verdicts = {row['check']: (row['measured'], row['bar'], row['met']) for row in _acceptance(results)}
     assert verdicts == {
@@ -57,5 +78,10 @@ def test_bars_are_applied_to_the_measured_figures() -> None:
         'hgr, cells: skin recall >= 0.9': (0.8, 0.9, False),
         'hgr, pixels: skin F1 >= 0.92': (0.88, 0.92, False),
         'hgr, pixels: skin recall >= 0.9': (0.91, 0.9, True),
+        'latency, pipeline, 30 Hz: poses received of 240 sent': (240, 240, True),
+        'latency, pipeline, 30 Hz: median above processing (ms) <= 1': (0.8, 1.0, True),
+        'latency, separate, 30 Hz: poses received of 240 sent': (239, 240, False),
+        'latency, separate, 30 Hz: median (ms) <= 5': (4.0, 5.0, True),
+        'latency, separate, 30 Hz: p95 (ms) <= 10': (12.0, 10.0, False),
     }
     assert _acceptance({}) == []

@@ -15,7 +15,7 @@ from human_tracker.vision.background import BackgroundModel
 from human_tracker.vision.faces import FACE_ON_HEAD, Detection
 from human_tracker.vision.optical_flow import OpticalFlow
 from human_tracker.vision.resolution import to_working, working_scale
-from human_tracker.vision.target import FACELESS_RUNS, TargetParameters, TargetTracker
+from human_tracker.vision.target import FACELESS_FRAMES, TargetParameters, TargetTracker
 from human_tracker.vision.templates import head_and_shoulders
 from human_tracker.vision.tracker import TrackerParameters, state_from_box
 
@@ -311,14 +311,15 @@ def test_a_face_on_the_start_frame_relates_the_given_box_to_it() -> None:
 
 def test_a_head_without_its_face_and_without_motion_becomes_lost() -> None:
     """With no moving region to say where the person is, a head whose face was seen is weak
-    after FACELESS_RUNS detector runs in a row without it, LOST ``lost_frames`` frames later,
-    and TRACKING again once its face is back."""
+    after detector runs in a row without it over FACELESS_FRAMES frames, LOST ``lost_frames``
+    frames later, and TRACKING again once its face is back."""
     (frame, image), *_ = _frames('head_basic')
     face = _face_on_box(frame.ground_truth, image)
-    tracker = _face_tracker([[face]] + [[]] * FACELESS_RUNS + [[face]])
+    runs = FACELESS_FRAMES // 5  # detect_every 5
+    tracker = _face_tracker([[face]] + [[]] * runs + [[face]])
     tracker.initialise_from_box(frame.ground_truth)
-    statuses = [tracker.process(image).status for _ in range(5 * (FACELESS_RUNS + 1) + 1)]
-    weak_from = 5 * FACELESS_RUNS  # the frame of the FACELESS_RUNS-th run without the face
+    statuses = [tracker.process(image).status for _ in range(5 * (runs + 1) + 1)]
+    weak_from = 5 * runs  # the frame of the last run without the face
     lost_at = weak_from + tracker.parameters.lost_frames - 1
     assert statuses[:lost_at] == ['TRACKING'] * lost_at
     assert statuses[lost_at:-1] == ['LOST'] * (len(statuses) - 1 - lost_at)

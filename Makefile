@@ -68,7 +68,7 @@ $(CONTRIB): requirements-contrib.txt
 	touch $(CONTRIB)
 
 bench: $(STAMP) $(CONTRIB)
-	$(PY) -m human_tracker.bench --out out/bench --contrib-python .venv-contrib/bin/python --report docs/benchmark.md
+	$(PY) -m human_tracker.bench --out out/bench --contrib-python .venv-contrib/bin/python --report docs/benchmark.md --readme README.md --evaluation docs/evaluation.md
 
 # Issue-7 soak: 100,000 looped frames through the pipeline's nodes; memory and accounting.
 soak: $(STAMP)

@@ -45,6 +45,14 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image
 
+from human_tracker.evaluation.accuracy import (
+    by_sequence_and_tracker,
+    compare_on_folder,
+    compare_on_sequence,
+    precision_cell,
+    real_people_table,
+    wrong_cell,
+)
 from human_tracker.io.bags import read_frames
 from human_tracker.io.images import stamp_ns
 from human_tracker.ros.collector import PoseCollector
@@ -187,7 +195,6 @@ def _table(rows: list[dict[str, object]], columns: list[str]) -> str:
 
 
 def _speed(bag: Path, contrib_python: Path | None) -> dict[str, object]:
-    from human_tracker.evaluation.accuracy import compare_on_sequence
     from human_tracker.evaluation.speed import stage_timings
     from human_tracker.io.sequences import open_sequence
 
@@ -260,16 +267,13 @@ def _acceptance(results: dict[str, object]) -> list[dict[str, object]]:
     return checks
 
 
-def _accuracy(sequences: list[Path], contrib_python: Path | None) -> list[dict[str, object]]:
-    from human_tracker.evaluation.accuracy import compare_on_sequence
-
-    rows = []
-    for path in sequences:
-        real = path.parent.name == 'real'
-        target = 'hand' if real and 'hand' in path.name else None
-        for row in compare_on_sequence(path, contrib_python, target, without_box=real):
-            rows.append({'sequence': path.name, **row})
-            print(json.dumps(rows[-1]))
+def _accuracy(bags: list[Path], real_data: Path, contrib_python: Path | None) -> list[dict[str, object]]:
+    rows = [{'sequence': path.name, **row} for path in bags for row in compare_on_sequence(path, contrib_python)]
+    for row in rows:
+        print(json.dumps(row))
+    for row in compare_on_folder(real_data, contrib_python) if real_data.is_dir() else ():
+        rows.append(row)
+        print(json.dumps(row))
     return rows
 
 
@@ -340,6 +344,43 @@ def _skin(real_data: Path) -> list[dict[str, object]]:
     return rows
 
 
+def _readme_summary(results: dict[str, object]) -> str:
+    """The README's results: real people (ours from the box and without, CSRT) and the speed."""
+    real = by_sequence_and_tracker(results.get('accuracy', []))  # type: ignore[arg-type]
+    lines = ['| | ' + ' | '.join(real) + ' |', '|---|' + '---|' * len(real)]
+    for name in ('ours', 'ours, no box'):
+        cells = [f'{precision_cell(by[name], spread=False)} ({wrong_cell(by[name])})' for by in real.values()]
+        lines.append(f'| {name} | ' + ' | '.join(cells) + ' |')
+    lines.append('| CSRT | ' + ' | '.join(precision_cell(by.get('CSRT')) for by in real.values()) + ' |')
+    speed = results.get('speed')
+    if isinstance(speed, dict) and 'CSRT' in speed['trackers_ms_640x480']:
+        stages, trackers = speed['stages_ms']['640x480'], speed['trackers_ms_640x480']
+        lines += [
+            '',
+            f'Speed in the same run, 640x480: the head pipeline {stages["pipeline"]:.1f} ms per frame, '
+            f'{trackers["CSRT"] / stages["pipeline"]:.1f}x faster than CSRT ({trackers["CSRT"]:.1f} ms); '
+            f'the hand pipeline {stages["hand_pipeline"]:.1f} ms, {stages["hand_pipeline"] / trackers["KCF"]:.1f}x '
+            f'KCF ({trackers["KCF"]:.1f} ms); one particle filter step with 500 particles '
+            f'{stages["particle_filter_500"]:.2f} ms.',
+        ]
+    return '\n'.join(lines) + '\n'
+
+
+def write_between_markers(path: Path, name: str, text: str) -> None:
+    """Replace what lies between ``<!-- bench:NAME -->`` and ``<!-- /bench:NAME -->`` in ``path``.
+
+    Raises:
+        ValueError: The file lacks the pair of markers.
+    """
+    start, end = f'<!-- bench:{name} -->', f'<!-- /bench:{name} -->'
+    content = path.read_text()
+    head, found, rest = content.partition(start)
+    _, found_end, tail = rest.partition(end)
+    if not found or not found_end:
+        raise ValueError(f'{path} has no {start} ... {end} block to write into')
+    path.write_text(f'{head}{start}\n\n{text}\n{end}{tail}')
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``python -m human_tracker.bench``."""
     parser = argparse.ArgumentParser(description='Speed, accuracy and latency, measured in one run.')
@@ -350,6 +391,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('--real-data', type=Path, default=Path('../shared/data/real'))
     parser.add_argument('--sections', default='speed,accuracy,latency,threads')
     parser.add_argument('--report', type=Path, help='also write the markdown report here (docs/benchmark.md)')
+    parser.add_argument(
+        '--readme', type=Path, help="write the summary of real people and speed into this README's bench block"
+    )
+    parser.add_argument('--evaluation', type=Path, help="write the table of real people into this file's bench block")
     options = parser.parse_args(argv)
     use_threads(default_threads())
     options.out.mkdir(parents=True, exist_ok=True)
@@ -384,10 +429,8 @@ def main(argv: list[str] | None = None) -> int:
             _table(tracker_rows, ['tracker', 'ms_per_frame', 'ratio_to_our_pipeline']),
         ]
     if 'accuracy' in sections:
-        sequences = sorted(p for p in Path('bags').iterdir() if p.is_dir())
-        if options.real_data.is_dir():
-            sequences += sorted(p.parent for p in options.real_data.glob('*/groundtruth.txt'))
-        results['accuracy'] = _accuracy(sequences, contrib)
+        bags = sorted(p for p in Path('bags').iterdir() if p.is_dir())
+        results['accuracy'] = _accuracy(bags, options.real_data, contrib)
         columns = ['sequence', 'tracker', 'precision_20px', 'success_auc', 'mean_centre_error_px', 'confident_wrong']
         columns += ['ms_per_frame']
         columns += ['runs', 'precision_20px_mean', 'precision_20px_min', 'precision_20px_max', 'confident_wrong_max']
@@ -450,6 +493,11 @@ def main(argv: list[str] | None = None) -> int:
     (options.out / 'results.md').write_text('\n'.join(report))
     if options.report:
         options.report.write_text('\n'.join(report))
+    if 'accuracy' in sections:
+        if options.readme:
+            write_between_markers(options.readme, 'summary', _readme_summary(results))
+        if options.evaluation:
+            write_between_markers(options.evaluation, 'real', real_people_table(results['accuracy']))  # type: ignore[arg-type]
     print('\n'.join(report))
     return 0
 

@@ -94,6 +94,26 @@ def _eval(options: argparse.Namespace) -> int:
     return 0
 
 
+def _compare(options: argparse.Namespace) -> int:
+    from human_tracker.evaluation.accuracy import compare_on_folder, real_people_table
+
+    contrib = options.contrib_python
+    if contrib is not None and not contrib.exists():
+        raise ValueError(f'--contrib-python {contrib} does not exist (make bench creates .venv-contrib)')
+    rows = []
+    for row in compare_on_folder(options.folder, contrib):
+        rows.append(row)
+        print(f'{row["sequence"]}: {row["tracker"]} {row["precision_20px_mean"]:.3f}', file=sys.stderr)
+    if not rows:
+        raise ValueError(f'{options.folder} holds no sequence (a sub-folder with a groundtruth.txt)')
+    options.out.mkdir(parents=True, exist_ok=True)
+    table = real_people_table(rows)
+    (options.out / 'compare.json').write_text(json.dumps(rows, indent=2) + '\n')
+    (options.out / 'compare.md').write_text(table)
+    print(table)
+    return 0
+
+
 def _import(options: argparse.Namespace) -> int:
     from human_tracker.io.bags import write_bag
     from human_tracker.io.sequences import open_sequence, read_groundtruth
@@ -235,6 +255,16 @@ def main(argv: list[str] | None = None) -> int:
     evaluate.add_argument('poses', type=Path, help='poses.csv written by track')
     evaluate.add_argument('truth', help='groundtruth.txt, or the sequence (bag or folder) that holds it')
     evaluate.set_defaults(run=_eval)
+
+    compare = commands.add_parser(
+        'compare', help='ours (5 seeds, with and without a first box), the paper and OpenCV on a folder of sequences'
+    )
+    compare.add_argument('folder', type=Path, help='folder of sequences (sub-folders with a groundtruth.txt)')
+    compare.add_argument('--out', type=Path, default=Path('out/compare'), help='folder for compare.md and .json')
+    compare.add_argument(
+        '--contrib-python', type=Path, help='python of a virtualenv with opencv-contrib (adds KCF and CSRT)'
+    )
+    compare.set_defaults(run=_compare)
 
     importer = commands.add_parser('import', help='a folder of frames or a video (with ground truth) into a bag')
     importer.add_argument('input', help='video file or folder of frames (optional groundtruth.txt)')

@@ -2,7 +2,12 @@
 
 from __future__ import annotations
 
-from human_tracker.bench import _acceptance
+from pathlib import Path
+
+import pytest
+
+from human_tracker.bench import _acceptance, _readme_summary, write_between_markers
+from human_tracker.evaluation.accuracy import real_people_table
 
 
 def test_bars_are_applied_to_the_measured_figures() -> None:
@@ -85,3 +90,58 @@ def test_bars_are_applied_to_the_measured_figures() -> None:
         'latency, separate, 30 Hz: p95 (ms) <= 10': (12.0, 10.0, False),
     }
     assert _acceptance({}) == []
+
+
+def _scores(sequence: str, tracker: str, mean: float, low: float, high: float, wrong: float = 0.0) -> dict[str, object]:
+    return {
+        'sequence': sequence,
+        'tracker': tracker,
+        'precision_20px_mean': mean,
+        'precision_20px_min': low,
+        'precision_20px_max': high,
+        'confident_wrong_max': wrong,
+    }
+
+
+def test_the_summaries_of_real_people_come_from_the_run(tmp_path: Path) -> None:
+    """The README's and docs/evaluation.md's tables hold the run's figures, heads before hands,
+    real sequences only (a bag has no run without a box), written between their markers."""
+    results = {
+        'accuracy': [
+            _scores('head_basic', 'ours (background cue)', 1.0, 1.0, 1.0),
+            _scores('hand2', 'ours (background + skin)', 0.4, 0.3, 0.5, 0.06),
+            _scores('hand2', 'ours (background + skin, no box)', 0.35, 0.2, 0.45),
+            _scores('hand2', 'paper (background + skin)', 0.2, 0.1, 0.3),
+            _scores('hand2', 'CSRT', 0.206, 0.206, 0.206),
+            _scores('trellis', 'ours (background cue)', 0.9, 0.8, 1.0),
+            _scores('trellis', 'ours (background cue, no box)', 0.75, 0.75, 0.75, 0.037),
+            _scores('trellis', 'paper (background cue)', 0.05, 0.0, 0.1),
+            _scores('trellis', 'KCF', 0.026, 0.026, 0.026),
+            _scores('trellis', 'CSRT', 1.0, 1.0, 1.0),
+        ],
+        'speed': {
+            'stages_ms': {'640x480': {'particle_filter_500': 0.95, 'pipeline': 5.0, 'hand_pipeline': 9.0}},
+            'trackers_ms_640x480': {'KCF': 3.0, 'CSRT': 25.0},
+        },
+    }
+    assert _readme_summary(results).splitlines() == [
+        '| | trellis | hand2 |',
+        '|---|---|---|',
+        '| ours | 0.900 (0) | 0.400 (0.06) |',
+        '| ours, no box | 0.750 (0.037) | 0.350 (0) |',
+        '| CSRT | 1.000 | 0.206 |',
+        '',
+        'Speed in the same run, 640x480: the head pipeline 5.0 ms per frame, 5.0x faster than CSRT (25.0 ms); '
+        'the hand pipeline 9.0 ms, 3.0x KCF (3.0 ms); one particle filter step with 500 particles 0.95 ms.',
+    ]
+    table = real_people_table(results['accuracy']).splitlines()
+    assert table[2:] == [
+        '| trellis | 0.900 [0.800, 1.000] | 0 | 0.750 | 0.037 | 0.050 | - | - | 0.026 | 1.000 |',
+        '| hand2 | 0.400 [0.300, 0.500] | 0.06 | 0.350 [0.200, 0.450] | 0 | 0.200 | - | - | - | 0.206 |',
+    ]
+    document = tmp_path / 'README.md'
+    document.write_text('# x\n<!-- bench:real -->\nold\n<!-- /bench:real -->\n\nafter\n')
+    write_between_markers(document, 'real', 'new\n')
+    assert document.read_text() == '# x\n<!-- bench:real -->\n\nnew\n\n<!-- /bench:real -->\n\nafter\n'
+    with pytest.raises(ValueError, match='no <!-- bench:summary -->'):
+        write_between_markers(document, 'summary', 'new\n')

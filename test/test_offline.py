@@ -183,3 +183,31 @@ def test_real_sequence_david(tmp_path) -> None:
     assert summary['precision_20px'] >= 0.75
     # The camera moves with the man: the foreground covers most of nearly every frame.
     assert summary['frames_motion_set_aside'] >= 400
+
+
+def test_compare_a_folder_of_sequences(tmp_path, head_bag, capsys) -> None:
+    """`compare` runs ours from the box and without, the paper's tracker and OpenCV's on each
+    sequence of a folder, and writes the table; a folder without sequences is an error."""
+    folder = tmp_path / 'sequences' / 'walker' / 'img'
+    folder.mkdir(parents=True)
+    frames = list(read_frames(head_bag))[:30]
+    for frame in frames:
+        cv2.imwrite(str(folder / f'{frame.index:04d}.png'), cv2.imdecode(frame.message.data, cv2.IMREAD_COLOR))
+    write_groundtruth(folder.parent / 'groundtruth.txt', [f.ground_truth for f in frames])
+    out = tmp_path / 'out'
+    assert main(['compare', str(tmp_path / 'sequences'), '--out', str(out)]) == 0
+    rows = json.loads((out / 'compare.json').read_text())
+    trackers = [row['tracker'] for row in rows]
+    assert trackers == [
+        'ours (background cue)',
+        'ours (background cue, no box)',
+        'paper (background cue)',
+        'CamShift',
+        'MIL',
+    ]
+    assert {row['sequence'] for row in rows} == {'walker'} and rows[0]['runs'] == 5
+    assert rows[0]['precision_20px_mean'] >= 0.9
+    table = (out / 'compare.md').read_text().splitlines()
+    assert table[2].startswith(f'| walker | {rows[0]["precision_20px_mean"]:.3f}') and table[2].endswith('| - | - |')
+    assert main(['compare', str(tmp_path / 'sequences' / 'walker' / 'img'), '--out', str(out)]) == 2
+    assert 'holds no sequence' in capsys.readouterr().err

@@ -17,6 +17,8 @@ import json
 import os
 import subprocess
 import tempfile
+from collections.abc import Iterator
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
@@ -25,9 +27,21 @@ from human_tracker.evaluation.baselines import run_baseline
 from human_tracker.evaluation.metrics import Box, summarise
 from human_tracker.io.sequences import open_sequence
 from human_tracker.offline import TrackOptions, read_poses, track_sequence
+from human_tracker.vision.target import TargetParameters, parameters_for
 from human_tracker.vision.tracker import TrackerParameters
 
-__all__ = ['CONTRIB_BASELINES', 'MAIN_WHEEL_BASELINES', 'RANDOM_BASELINE_RUNS', 'SEEDS', 'compare_on_sequence']
+__all__ = [
+    'CONTRIB_BASELINES',
+    'MAIN_WHEEL_BASELINES',
+    'RANDOM_BASELINE_RUNS',
+    'SEEDS',
+    'by_sequence_and_tracker',
+    'compare_on_folder',
+    'compare_on_sequence',
+    'precision_cell',
+    'real_people_table',
+    'wrong_cell',
+]
 
 MAIN_WHEEL_BASELINES = ('CamShift', 'MIL')
 CONTRIB_BASELINES = ('KCF', 'CSRT')
@@ -36,6 +50,58 @@ SEEDS = (0, 1, 2, 3, 4)
 RANDOM_BASELINE_RUNS = {'MIL': 3}
 """Runs of the baselines whose result changes from run to run (the others run once)."""
 _REPO = Path(__file__).resolve().parents[2]
+
+
+def by_sequence_and_tracker(rows: list[dict[str, object]]) -> dict[str, dict[str, dict[str, object]]]:
+    """The accuracy rows of the real sequences (those run without a box too), by sequence and
+    by tracker: ``ours``, ``ours, no box``, ``paper`` or the baseline's name; heads first."""
+    table: dict[str, dict[str, dict[str, object]]] = {}
+    for row in rows:
+        tracker = str(row['tracker'])
+        kind = tracker.split(' (')[0]
+        table.setdefault(str(row['sequence']), {})[f'{kind}, no box' if 'no box' in tracker else kind] = row
+    real = {name: by for name, by in table.items() if 'ours, no box' in by}
+    return dict(sorted(real.items(), key=lambda item: ('hand' in item[0], item[0])))
+
+
+def precision_cell(row: dict[str, object] | None, spread: bool = True) -> str:
+    """Mean precision at 20 px over the runs, with [min, max] when they differ (``spread``)."""
+    if row is None:
+        return '-'
+    mean, low, high = (float(row[f'precision_20px_{k}']) for k in ('mean', 'min', 'max'))
+    return f'{mean:.3f} [{low:.3f}, {high:.3f}]' if spread and low != high else f'{mean:.3f}'
+
+
+def wrong_cell(row: dict[str, object]) -> str:
+    """The worst run's confident-wrong share."""
+    return f'{float(row["confident_wrong_max"]):.3g}'
+
+
+def real_people_table(rows: list[dict[str, object]]) -> str:
+    """Markdown table of the sequences run without a box too: ours (from the first box and
+    without), the paper's tracker and OpenCV's trackers, mean precision at 20 px."""
+    real = by_sequence_and_tracker(rows)
+    columns = ['from the first box', 'confident-wrong, worst run', 'without a box', 'confident-wrong, worst run']
+    columns += ["the paper's tracker, from the box", *MAIN_WHEEL_BASELINES, *CONTRIB_BASELINES]
+    lines = ['| sequence | ' + ' | '.join(columns) + ' |', '|---|' + '---|' * len(columns)]
+    for sequence, by in real.items():
+        cells = [precision_cell(by['ours']), wrong_cell(by['ours'])]
+        cells += [precision_cell(by['ours, no box']), wrong_cell(by['ours, no box'])]
+        others = ('paper', *MAIN_WHEEL_BASELINES, *CONTRIB_BASELINES)
+        cells += [precision_cell(by.get(name), spread=False) for name in others]
+        lines.append(f'| {sequence} | ' + ' | '.join(cells) + ' |')
+    return '\n'.join(lines) + '\n'
+
+
+def compare_on_folder(folder: str | Path, contrib_python: Path | None) -> Iterator[dict[str, object]]:
+    """:func:`compare_on_sequence` on every sequence of ``folder`` (its sub-folders with a
+    ``groundtruth.txt``, by name), from the first box and without, with the paper's tracker;
+    each row gains the ``sequence`` name. A sequence whose name holds ``hand`` is a hand's
+    (``../shared/data/real/hand2``), any other a head's unless it says otherwise."""
+    for path in sorted(p.parent for p in Path(folder).glob('*/groundtruth.txt')):
+        target = 'hand' if 'hand' in path.name else None
+        for row in compare_on_sequence(path, contrib_python, target, without_box=True, paper=True):
+            yield {'sequence': path.name, **row}
 
 
 def _contrib(name: str, folder: Path, init: Box, contrib_python: Path) -> tuple[list[Box | None], float]:
@@ -68,12 +134,18 @@ def _row(tracker: str, runs: list[tuple[list[Box | None], float]], scored: list[
 
 
 def compare_on_sequence(
-    path: str | Path, contrib_python: Path | None, target: str | None = None, without_box: bool = False
+    path: str | Path,
+    contrib_python: Path | None,
+    target: str | None = None,
+    without_box: bool = False,
+    paper: bool = False,
 ) -> list[dict[str, object]]:
     """Rows (tracker, first run's precision at 20 px, success AUC, mean error, ms per frame; precision over runs).
 
     ``target`` overrides what the sequence says it outlines (a folder of frames says
-    nothing: head); ``without_box`` adds our tracker started by itself (no first box).
+    nothing: head); ``without_box`` adds our tracker started by itself (no first box);
+    ``paper`` adds the paper's tracker from the first box (``likelihood: paper``,
+    ``proposals: off``: the shape and cue likelihoods of eqs. 1-4 and §3.2 alone).
     """
     sequence = open_sequence(path)
     target = target or sequence.target or 'head'
@@ -92,20 +164,26 @@ def compare_on_sequence(
         for index, frame in enumerate(frames[first:]):
             cv2.imwrite(str(folder / f'{index:06d}.png'), frame.image)
         # Ours on exactly those frames (a folder without ground truth: scored here).
-        for start in (init, None) if without_box else (init,):
+        variants: list[tuple[str, Box | None, TargetParameters | None]] = [('ours', init, None)]
+        if without_box:
+            variants.append(('ours', None, None))
+        if paper:
+            variants.append(('paper', init, replace(parameters_for(target), likelihood='paper', proposals='off')))
+        for name, start, parameters in variants:
             ours = []
             for seed in SEEDS:
                 options = TrackOptions(
                     target=target,
                     init=start,
                     filter_parameters=TrackerParameters(seed=seed),
+                    target_parameters=parameters,
                     progress=False,
                     video=False,
                 )
                 summary = track_sequence(folder, Path(scratch) / 'ours', options)
                 ours.append((read_poses(Path(scratch) / 'ours' / 'poses.csv'), float(summary['ms_per_frame'])))
             cues = 'background + skin' if summary['skin'] else 'background cue'
-            rows.append(_row(f'ours ({cues}{"" if start else ", no box"})', ours, scored))
+            rows.append(_row(f'{name} ({cues}{"" if start else ", no box"})', ours, scored))
         for name in MAIN_WHEEL_BASELINES:
             runs = [
                 run_baseline(name, (f.image for f in frames[first:]), init)

@@ -18,7 +18,7 @@ from human_tracker.vision.appearance import (
     region_histograms,
 )
 from human_tracker.vision.boxes import BoxRelation
-from human_tracker.vision.faces import Detection, FaceDetector, face_detector_available
+from human_tracker.vision.faces import Detection, FaceDetector, _overlap, face_detector_available
 from human_tracker.vision.proposals import (
     detection_log_likelihood,
     draw_with_proposals,
@@ -253,3 +253,30 @@ def test_a_face_off_the_contour_restarts_only_a_target_found_by_itself() -> None
     tracker.initialise_from_box((90.0, 95.0, 30.0, 30.0))
     assert tracker._restart_on_face(faces, None, estimate, unlike) is None
     assert tracker._restart_on_face(faces, None, estimate, alike) == 0
+
+
+def test_box_overlap_by_hand() -> None:
+    # 5x5 shared of 10x10 and 10x10: 25 / (100 + 100 - 25).
+    assert _overlap((0.0, 0.0, 10.0, 10.0), (5.0, 5.0, 10.0, 10.0)) == pytest.approx(25 / 175)
+    assert _overlap((0.0, 0.0, 10.0, 10.0), (20.0, 0.0, 10.0, 10.0)) == 0.0
+
+
+@pytest.mark.skipif(not face_detector_available(), reason='dlib is not installed')
+@pytest.mark.skipif(not (REAL / 'interview_alberto').is_dir(), reason='real sequences absent')
+def test_a_face_localised_over_zooms_moves_less_with_the_crop() -> None:
+    """The same face found from crops of a few different predicted sizes jumps by a tenth of its
+    width (the HOG's cells and pyramid); localised over the zooms of one pyramid step, by less."""
+    image = cv2.cvtColor(cv2.imread(str(sorted((REAL / 'interview_alberto' / 'img').iterdir())[0])), cv2.COLOR_BGR2GRAY)
+    truth = [float(v) for v in (REAL / 'interview_alberto' / 'groundtruth.txt').read_text().split()[0].split(',')]
+    detector = FaceDetector()
+    single, localised = [], []
+    for factor in (0.8, 0.85, 0.9, 0.95, 1.0, 1.05, 1.1, 1.15):
+        x, y, w, h = truth
+        predicted = (x + w / 2 - factor * w / 2, y + h / 2 - factor * h / 2, factor * w, factor * h)
+        box = detector.detect_near(image, predicted)[0].box
+        single.append(box)
+        localised.append(detector.localise(image, box))
+    centres = [np.array([[x + w / 2, y + h / 2] for x, y, w, h in boxes]) for boxes in (single, localised)]
+    spread_single, spread_localised = (float(np.linalg.norm(c.std(axis=0))) for c in centres)
+    assert spread_single > 0.02 * truth[2], 'the crops gave the same box: nothing to remove'
+    assert spread_localised < 0.7 * spread_single  # measured: 2.0 against 3.5 px

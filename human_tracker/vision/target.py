@@ -449,6 +449,7 @@ class TargetTracker:
         self.faceless_runs = 0
         self.runs_without_own_face = 0
         self.last_face = None
+        self.detected_on: np.ndarray | None = None  # the grey working frame of the last detector run
         self.previous_frame = None
         self.start_box = None
         self.started_from_box = False
@@ -726,7 +727,7 @@ class TargetTracker:
         self.faceless_runs += 1
         if patient and self.faceless_runs % 4:
             return None
-        grey = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+        grey = self.detected_on = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
         found = self._detect_faces(grey) if self.parameters.proposals == 'faces' else self._detect_face_to_avoid(grey)
         if found:
             self.faceless_runs = 0
@@ -792,6 +793,9 @@ class TargetTracker:
         a box was given on (``given_box``, working pixels) relates to that box itself: the
         contour has already moved within the frame's filter step.
         """
+        if self.face_relation is None and self.detector is not None and self.detected_on is not None:
+            # The relation is kept for the whole track: it must not carry one detection's jitter.
+            face = face._replace(box=self.detector.localise(self.detected_on, face.box))
         x, y, w, h = face.box
         face_state = np.array([x + w / 2, y + h / 2, w, 0.0])
         if self.face_relation is None:

@@ -74,7 +74,7 @@ def precision_cell(row: dict[str, object] | None, spread: bool = True) -> str:
 
 def wrong_cell(row: dict[str, object]) -> str:
     """The worst run's confident-wrong share."""
-    return f'{float(row["confident_wrong_max"]):.3g}'
+    return f'{float(row["confident_wrong_max"]):.3f}'.rstrip('0').rstrip('.')
 
 
 def real_people_table(rows: list[dict[str, object]]) -> str:

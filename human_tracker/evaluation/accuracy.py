@@ -54,7 +54,7 @@ _REPO = Path(__file__).resolve().parents[2]
 
 def by_sequence_and_tracker(rows: list[dict[str, object]]) -> dict[str, dict[str, dict[str, object]]]:
     """The accuracy rows of the real sequences (those run without a box too), by sequence and
-    by tracker: ``ours``, ``ours, no box``, ``paper`` or the baseline's name; heads first."""
+    by tracker: ``ours``, ``ours, no box``, ``paper`` or the baseline's name; hands last."""
     table: dict[str, dict[str, dict[str, object]]] = {}
     for row in rows:
         tracker = str(row['tracker'])

@@ -95,8 +95,8 @@ SEARCH_REACH = 4.0
 # a whole-frame search costs 10-20 ms, and a robot often sees a person from behind, or a hand
 # and no face.
 PATIENT_SEARCHES = 8
-# Frames (over detector runs in a row) without its face after which a head is weak when
-# motion cannot support it.
+# Frames without its face after which a head is weak when motion cannot support it: counted
+# in frames, not detector runs, which thin out when no face is found (PATIENT_SEARCHES).
 FACELESS_FRAMES = 30
 
 WAITING = 'WAITING'
@@ -371,7 +371,7 @@ class TargetTracker:
     face_relation: BoxRelation | None = field(default=None, init=False)
     face_misses: int = field(default=0, init=False)
     faceless_runs: int = field(default=0, init=False)
-    runs_without_own_face: int = field(default=0, init=False)
+    frames_without_own_face: int = field(default=0, init=False)
     last_face: tuple[float, float, float, float] | None = field(default=None, init=False)
     previous_frame: np.ndarray | None = field(default=None, init=False)
     start_box: tuple[float, float, float, float] | None = field(default=None, init=False)
@@ -429,7 +429,7 @@ class TargetTracker:
         self.filter.initialise(state / self._to_camera_factors())
         self.box_relation = BoxRelation.of(box, state)  # until the contour settles on the next frame
         self.face_relation = None
-        self.runs_without_own_face = 0
+        self.frames_without_own_face = 0
         self.start_box = tuple(float(v) for v in box)  # type: ignore[assignment]
         self.started_from_box = True
         self.appearance = None
@@ -451,7 +451,7 @@ class TargetTracker:
         self.face_relation = None
         self.face_misses = 0
         self.faceless_runs = 0
-        self.runs_without_own_face = 0
+        self.frames_without_own_face = 0
         self.last_face = None
         self.detected_on: np.ndarray | None = None  # the grey working frame of the last detector run
         self.previous_frame = None
@@ -600,9 +600,10 @@ class TargetTracker:
             estimate = self.filter.step(edges, likelihood_motion, likelihood_skin, appearance, states)
             self.status, self.weak_frames, initialised = TRACKING, 0, True
             face = detections[restart]
-        if head_faces is not None and self.status == TRACKING:
-            self.face_misses = 0 if face is not None else self.face_misses + 1
-            self.runs_without_own_face = 0 if face is not None else self.runs_without_own_face + 1
+        if self.status == TRACKING:
+            if head_faces is not None:
+                self.face_misses = 0 if face is not None else self.face_misses + 1
+            self.frames_without_own_face = 0 if face is not None else self.frames_without_own_face + 1
         found = None
         if region is not None and not initialised and self._may_switch(estimate):
             # The skin proposals' X_0 when they came from this region.
@@ -640,7 +641,7 @@ class TargetTracker:
             weak = True
         if likelihood_skin is not None and estimate.skin_support < p.lost_skin_support:
             weak = True
-        faceless = self.runs_without_own_face * p.detect_every >= FACELESS_FRAMES
+        faceless = self.frames_without_own_face >= FACELESS_FRAMES
         if motion is None and self.face_relation is not None and faceless:
             # A head whose face was seen, without it for a while and with no moving region to
             # say where the person is: the edge fit alone slides onto clutter (a panning camera).

@@ -56,6 +56,7 @@ def _track(options: argparse.Namespace) -> int:
     settings = TrackOptions(
         target=options.target,
         init=options.init,
+        init_kind=options.init_kind,
         cue=options.cue,
         skin=options.skin,
         template_file=options.template or '',
@@ -78,19 +79,23 @@ def _track(options: argparse.Namespace) -> int:
 def _eval(options: argparse.Namespace) -> int:
     from human_tracker.evaluation.metrics import summarise
     from human_tracker.io.sequences import open_sequence, read_groundtruth
-    from human_tracker.offline import read_poses
+    from human_tracker.offline import read_tracks
 
-    predicted = read_poses(options.poses)
+    tracks = read_tracks(options.poses)
     truth_path = Path(options.truth)
     truth = (
         read_groundtruth(truth_path)
         if truth_path.is_file() and truth_path.suffix == '.txt'
         else [f.ground_truth for f in open_sequence(truth_path)]
     )
-    if len(truth) != len(predicted):
-        print(f'human_tracker eval: {len(predicted)} poses but {len(truth)} ground-truth frames', file=sys.stderr)
+    frames = len(next(iter(tracks.values())))
+    if len(truth) != frames:
+        print(f'human_tracker eval: {frames} poses but {len(truth)} ground-truth frames', file=sys.stderr)
         return 2
-    print(json.dumps(summarise(predicted, truth), indent=2))
+    # A person's table: the ground truth is scored against the target that matches it best.
+    scores = {kind: summarise(boxes, truth) for kind, boxes in tracks.items()}
+    kind = max(scores, key=lambda k: scores[k]['precision_20px'])
+    print(json.dumps({**scores[kind], **({'scored_kind': kind} if kind else {})}, indent=2))
     return 0
 
 
@@ -219,10 +224,19 @@ def main(argv: list[str] | None = None) -> int:
         'input', help='bag (folder, .mcap, .db3), video file, or folder of frames (optional groundtruth.txt)'
     )
     track.add_argument(
-        '--target', choices=('head', 'hand'), help='what to track (default: what the ground truth outlines, or head)'
+        '--target',
+        choices=('head', 'hand', 'person'),
+        help='what to track: a head, a hand, or a person (head and hand, each with its id; default: what the '
+        'ground truth outlines, or head)',
     )
     track.add_argument(
         '--init', type=_box, metavar='X,Y,W,H', help='box of the target in the first frame (default: start from motion)'
+    )
+    track.add_argument(
+        '--init-kind',
+        choices=('head', 'hand'),
+        help='with --target person: which target --init is the box of (default: what the ground truth outlines, '
+        'or head)',
     )
     track.add_argument('--out', type=Path, help='output folder (default out/track/<input name>)')
     track.add_argument(

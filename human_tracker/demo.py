@@ -161,7 +161,9 @@ def run_demo(bag: Path, out: Path, *, domain_id: int | None = None, rate: float 
                     ]
                 )
             else:
-                table.writerow([frame.index, frame.stamp_ns, *[''] * 5, 'NO_POSE', *[''] * (len(POSE_COLUMNS) - 3)])
+                # Blank to the end of the row: the columns after the status, then the metric ones.
+                blanks = len(POSE_COLUMNS) - POSE_COLUMNS.index('status') - 1 + 3
+                table.writerow([frame.index, frame.stamp_ns, *[''] * 5, 'NO_POSE', *[''] * blanks])
             predicted.append(box)
             image = annotate(
                 message_to_bgr8(frame.message),

@@ -7,13 +7,15 @@ from collections.abc import Sequence
 import cv2
 import numpy as np
 
-__all__ = ['annotate']
+__all__ = ['annotate', 'draw_target', 'id_colour']
 
 _CONTOUR = (0, 255, 0)
 _BOX = (0, 200, 255)
 _TRUTH = (255, 0, 255)
 _PARTICLE = (255, 200, 0)
 _DETECTION = (0, 255, 255)
+# One colour per target id (BGR), cycled: far apart in hue, none of them the truth's magenta.
+_ID_COLOURS = ((0, 255, 0), (255, 128, 0), (0, 128, 255), (255, 255, 0), (128, 0, 255), (0, 255, 255))
 
 
 def _rect(image: np.ndarray, box: tuple[float, float, float, float], colour: tuple[int, int, int]) -> None:
@@ -70,3 +72,26 @@ def annotate(
         cv2.rectangle(out, (4, 20 - height - 4), (12 + width, 20 + baseline + 2), (0, 0, 0), -1)
         cv2.putText(out, label, (8, 20), cv2.FONT_HERSHEY_SIMPLEX, 0.55, (255, 255, 255), 1, cv2.LINE_AA)
     return out
+
+
+def id_colour(target_id: int) -> tuple[int, int, int]:
+    """The BGR colour target ``target_id`` is drawn in (grey for 0: no id)."""
+    return (160, 160, 160) if target_id <= 0 else _ID_COLOURS[(target_id - 1) % len(_ID_COLOURS)]
+
+
+def draw_target(
+    image: np.ndarray,
+    target_id: int,
+    tag: str,
+    contour: np.ndarray | None = None,
+    box: tuple[float, float, float, float] | None = None,
+) -> None:
+    """Draw one of several targets on ``image`` (BGR, in place) in its id's colour: its contour,
+    its box and ``tag`` (e.g. ``head 3``) above the box."""
+    colour = id_colour(target_id)
+    if contour is not None:
+        cv2.polylines(image, [np.round(contour).astype(np.int32)], False, colour, 2, cv2.LINE_AA)
+    if box is not None:
+        _rect(image, box, colour)
+        x, y = int(round(box[0])), int(round(box[1]))
+        cv2.putText(image, tag, (x, max(10, y - 3)), cv2.FONT_HERSHEY_SIMPLEX, 0.4, colour, 1, cv2.LINE_AA)

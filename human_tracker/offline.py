@@ -17,22 +17,24 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import cv2
+import numpy as np
 from tqdm import tqdm
 
-from human_tracker.drawing import annotate
+from human_tracker.drawing import annotate, draw_target
 from human_tracker.evaluation.metrics import Box, summarise
 from human_tracker.evaluation.plots import plot_run
 from human_tracker.io.images import to_mono8
 from human_tracker.io.sequences import open_sequence
 from human_tracker.vision.background import BackgroundModel
 from human_tracker.vision.optical_flow import OpticalFlow
+from human_tracker.vision.people import PersonTracker, TrackedTarget, kinds_of
 from human_tracker.vision.resolution import to_working, working_scale
 from human_tracker.vision.skin import SkinSegmenter, default_skin_model, has_colour
-from human_tracker.vision.target import TargetParameters, TargetTracker, parameters_for
+from human_tracker.vision.target import TargetParameters, parameters_for
 from human_tracker.vision.templates import make_template
 from human_tracker.vision.tracker import TrackerParameters, check_box_in_image
 
-__all__ = ['CUES', 'TrackOptions', 'track_sequence', 'POSE_COLUMNS']
+__all__ = ['CUES', 'POSE_COLUMNS', 'TrackOptions', 'read_poses', 'read_tracks', 'track_sequence']
 
 CUES = ('background', 'flow', 'none')
 POSE_COLUMNS = (
@@ -51,6 +53,9 @@ POSE_COLUMNS = (
     'motion_support',
     'skin_support',
     'appearance_distance',
+    'id',
+    'kind',
+    'person',
 )
 
 
@@ -59,16 +64,19 @@ class TrackOptions:
     """What to track and how.
 
     Attributes:
-        target: Built-in template name (``head`` or ``hand``); None: what the bag's ground
-            truth outlines, else ``head``.
+        target: ``head``, ``hand`` or ``person`` (a head and a hand, each with its id,
+            :mod:`~human_tracker.vision.people`); None: what the bag's ground truth
+            outlines, else ``head``.
         init: First-frame box (x, y, w, h) of the target's reference region, or None to start
             from motion.
+        init_kind: For a person, which target ``init`` is the box of (``head`` or ``hand``);
+            None: what the bag's ground truth outlines, else the head.
         cue: Motion cue: ``background``, ``flow`` or ``none``.
-        skin: Whether to segment skin and use it (§3.2); None: for the hand only.
-        template_file: JSON template replacing the built-in one (empty: built-in).
+        skin: Whether to segment skin and use it (§3.2); None: when a hand is followed.
+        template_file: JSON template replacing the built-in one (empty: built-in; one target).
         filter_parameters: Particle-filter constants.
         target_parameters: Cue combination, initialisation and loss constants; None: the
-            target's defaults.
+            target's defaults (one target).
         working_width: Overrides the target parameters' ``working_width`` (0: full size).
         video: Whether to write the annotated video.
         video_every: Write every this many frames to the video (a shorter file; same pace).
@@ -77,6 +85,7 @@ class TrackOptions:
 
     target: str | None = None
     init: Box | None = None
+    init_kind: str | None = None
     cue: str = 'background'
     skin: bool | None = None
     template_file: str = ''
@@ -106,17 +115,31 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
     out.mkdir(parents=True, exist_ok=True)
     sequence = open_sequence(source)
     target = options.target or sequence.target or 'head'
-    template = make_template(target, template_file=options.template_file)
-    target_parameters = options.target_parameters or parameters_for(target)
+    kinds = kinds_of(target)
+    if len(kinds) > 1 and (options.template_file or options.target_parameters is not None):
+        raise ValueError('a template file and target parameters are for one target, not a person')
+    parameters = {kinds[0]: options.target_parameters} if options.target_parameters is not None else {}
     if options.working_width is not None:
-        target_parameters = replace(target_parameters, working_width=options.working_width)
-    tracker = TargetTracker(template, options.filter_parameters, target_parameters)
+        parameters = {
+            k: replace(parameters.get(k) or parameters_for(k), working_width=options.working_width) for k in kinds
+        }
+    people = PersonTracker(
+        kinds,
+        options.filter_parameters,
+        parameters,
+        {kinds[0]: make_template(kinds[0], template_file=options.template_file)},
+    )
+    width = people.trackers[kinds[0]].parameters.working_width
+    init_kind = options.init_kind or (sequence.target if sequence.target in kinds else kinds[0])
+    if init_kind not in kinds:
+        raise ValueError(f'init_kind must be one of {", ".join(kinds)}, got {init_kind!r}')
     background, flow = BackgroundModel(), OpticalFlow()
-    use_skin = target == 'hand' if options.skin is None else options.skin
+    use_skin = people.uses_skin if options.skin is None else options.skin
     segmenter = SkinSegmenter(default_skin_model()) if use_skin else None
     grey_frames = 0
     motion_set_aside = 0
-    predicted: list[Box | None] = []
+    predicted: dict[str, list[Box | None]] = {kind: [] for kind in kinds}
+    ids: dict[str, list[int]] = {kind: [] for kind in kinds}
     truth: list[Box | None] = []
     writer = None
     elapsed = 0.0
@@ -125,17 +148,19 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
         table = csv.writer(handle)
         table.writerow(POSE_COLUMNS)
         for frame in tqdm(sequence, desc=f'tracking {sequence.name}', unit='frame', disable=not options.progress):
+            truth.append(frame.ground_truth)
             if frame.image is None:
                 # Counted, written as a row, and scored as a miss where annotated: never lost.
                 rejected[frame.rejected] = rejected.get(frame.rejected, 0) + 1
-                predicted.append(None)
-                truth.append(frame.ground_truth)
-                table.writerow([frame.index, frame.stamp_ns, *[''] * 5, 'REJECTED', *[''] * 7])
+                for kind in kinds:
+                    predicted[kind].append(None)
+                    ids[kind].append(0)
+                table.writerow([frame.index, frame.stamp_ns, *[''] * 5, 'REJECTED', *[''] * 10])
                 continue
             start = time.perf_counter()
             gray = to_mono8(frame.image)
             # The cues are computed at the working resolution, as the tracker fits there.
-            working = to_working(gray, target_parameters.working_width)
+            working = to_working(gray, width)
             motion = (
                 background.apply(working)
                 if options.cue == 'background'
@@ -145,88 +170,144 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
             )
             skin = None
             if segmenter is not None and has_colour(frame.image):
-                width = target_parameters.working_width
-                scale = working_scale(frame.image.shape[1], width)
-                skin = segmenter.segment(to_working(frame.image, width), scale)
+                skin = segmenter.segment(to_working(frame.image, width), working_scale(frame.image.shape[1], width))
             elif segmenter is not None:
                 grey_frames += 1
             if frame.index == 0 and options.init is not None:
                 check_box_in_image(options.init, frame.image.shape)
-                tracker.initialise_from_box(options.init)
-            result = tracker.process(frame.image if frame.image.ndim == 3 else gray, motion, skin)
+                people.initialise_from_box(options.init, init_kind)
+            outcomes = people.process(frame.image if frame.image.ndim == 3 else gray, motion, skin)
             elapsed += time.perf_counter() - start
-            motion_set_aside += result.motion_set_aside
-            estimate = result.estimate
-            box = estimate.box if result.tracking else None
-            predicted.append(box)
-            truth.append(frame.ground_truth)
-            if estimate is None:
-                table.writerow([frame.index, frame.stamp_ns, *[''] * 5, result.status, *[''] * 7])
-            else:
-                x, y, s, theta = (round(float(v), 4) for v in estimate.state)
-                shown = [round(v, 2) for v in estimate.box] if result.tracking else ['', '', '', '']
-                support = (estimate.motion_support, estimate.skin_support, estimate.appearance_distance)
-                table.writerow(
-                    [
-                        *(frame.index, frame.stamp_ns, x, y, s, theta, round(estimate.confidence, 4), result.status),
-                        *shown,
-                        *(round(v, 4) for v in support),
-                    ]
-                )
+            motion_set_aside += outcomes[0].result.motion_set_aside
+            for outcome in outcomes:
+                result = outcome.result
+                predicted[outcome.kind].append(result.estimate.box if result.tracking else None)
+                ids[outcome.kind].append(outcome.id)
+                table.writerow(_pose_row(frame.index, frame.stamp_ns, outcome))
             if options.video and frame.index % options.video_every == 0:
-                label = f'{sequence.name} {frame.index} {result.status}'
-                image = annotate(
-                    frame.image,
-                    contour=None if estimate is None else estimate.contour,
-                    box=box,
-                    truth=frame.ground_truth,
-                    label=label,
-                    detections=result.detections,
-                )
+                image = _annotated_frame(frame.image, outcomes, frame.ground_truth, f'{sequence.name} {frame.index}')
                 if writer is None:
-                    height, width = image.shape[:2]
+                    height, size = image.shape[:2]
                     writer = cv2.VideoWriter(
                         str(out / 'tracking.mp4'),
                         cv2.VideoWriter_fourcc(*'mp4v'),
                         sequence.fps / options.video_every,
-                        (width, height),
+                        (size, height),
                     )
                 writer.write(image)
     if writer is not None:
         writer.release()
+    processed = len(truth) - sum(rejected.values())
+    # Scored: the one target, or the person's target that matches the ground truth best.
+    scored = kinds[0]
+    if len(kinds) > 1 and any(t is not None for t in truth):
+        scored = max(kinds, key=lambda kind: summarise(predicted[kind], truth)['precision_20px'])
     summary: dict[str, object] = {
         'source': str(source),
         'target': target,
         'cue': options.cue,
         'skin': use_skin,
-        'working_width': target_parameters.working_width,
+        'working_width': width,
         'frames_without_colour': grey_frames,
         'frames_motion_set_aside': motion_set_aside,
         'init': list(options.init) if options.init is not None else 'motion',
-        'frames': len(predicted),
-        'frames_processed': len(predicted) - sum(rejected.values()),
+        'frames': len(truth),
+        'frames_processed': processed,
         'frames_rejected': sum(rejected.values()),
         'rejected_reasons': rejected,
-        'frames_tracked': int(sum(b is not None for b in predicted)),
-        'fps': round((len(predicted) - sum(rejected.values())) / elapsed, 2) if elapsed > 0 else None,
-        'ms_per_frame': round(1000 * elapsed / max(len(predicted) - sum(rejected.values()), 1), 3),
+        'frames_tracked': int(sum(b is not None for b in predicted[scored])),
+        'fps': round(processed / elapsed, 2) if elapsed > 0 else None,
+        'ms_per_frame': round(1000 * elapsed / max(processed, 1), 3),
     }
+    if len(kinds) > 1:
+        summary['targets'] = {kind: _id_summary(ids[kind]) for kind in kinds}
+        summary['scored_kind'] = scored
     if any(t is not None for t in truth):
-        summary.update(summarise(predicted, truth))
-    summary['plots'] = [p.name for p in plot_run(out, predicted, truth, sequence.name)]
+        summary.update(summarise(predicted[scored], truth))
+    summary['plots'] = [p.name for p in plot_run(out, predicted[scored], truth, sequence.name)]
     (out / 'summary.json').write_text(json.dumps(summary, indent=2) + '\n')
     return summary
 
 
-def read_poses(path: str | Path) -> list[Box | None]:
-    """Boxes from a ``poses.csv`` written by :func:`track_sequence` (None where not tracked).
+def _pose_row(index: int, stamp_ns: int, outcome: TrackedTarget) -> list[object]:
+    """One target's row of ``poses.csv`` (:data:`POSE_COLUMNS`)."""
+    result, estimate = outcome.result, outcome.result.estimate
+    who = [outcome.id or '', outcome.kind, outcome.person]
+    if estimate is None:
+        return [index, stamp_ns, *[''] * 5, result.status, *[''] * 7, *who]
+    x, y, s, theta = (round(float(v), 4) for v in estimate.state)
+    shown = [round(v, 2) for v in estimate.box] if result.tracking else ['', '', '', '']
+    support = (estimate.motion_support, estimate.skin_support, estimate.appearance_distance)
+    return [
+        *(index, stamp_ns, x, y, s, theta, round(estimate.confidence, 4), result.status),
+        *shown,
+        *(round(v, 4) for v in support),
+        *who,
+    ]
+
+
+def _annotated_frame(image: np.ndarray, outcomes: list[TrackedTarget], truth: Box | None, label: str) -> np.ndarray:
+    """The frame with every target drawn: one target as :func:`annotate` draws it; several each
+    in its id's colour, tagged with its kind and id."""
+    first = outcomes[0].result
+    detections = tuple(d for o in outcomes for d in o.result.detections)
+    if len(outcomes) == 1:
+        estimate = first.estimate
+        return annotate(
+            image,
+            contour=None if estimate is None else estimate.contour,
+            box=estimate.box if first.tracking else None,
+            truth=truth,
+            label=f'{label} {first.status}',
+            detections=detections,
+        )
+    states = ' '.join(f'{o.kind} {o.id or "-"} {o.result.status}' for o in outcomes)
+    shown = annotate(image, truth=truth, label=f'{label} {states}', detections=detections)
+    for outcome in outcomes:
+        estimate = outcome.result.estimate
+        if estimate is not None and outcome.result.tracking:
+            draw_target(shown, outcome.id, f'{outcome.kind} {outcome.id}', estimate.contour, estimate.box)
+    return shown
+
+
+def _id_summary(ids: list[int]) -> dict[str, object]:
+    """How a kind's ids went: how many were given, and the share of the frames the longest-held
+    one was held."""
+    held = [i for i in ids if i]
+    longest = max((held.count(i) for i in set(held)), default=0)
+    return {
+        'ids': len(set(held)),
+        'frames_tracked': len(held),
+        'longest_id_share': round(longest / max(len(ids), 1), 4),
+    }
+
+
+def read_poses(path: str | Path, kind: str | None = None) -> list[Box | None]:
+    """Boxes from a ``poses.csv`` written by :func:`track_sequence`, one per frame (None where
+    not tracked): of its one target, or of the target of ``kind`` in a person's table.
+
+    Raises:
+        ValueError: Not such a table (:func:`read_tracks`), no target of ``kind`` in it, or a
+            person's table and no ``kind``.
+    """
+    tracks = read_tracks(path)
+    if kind is None and len(tracks) > 1:
+        raise ValueError(f'{path} follows a person ({", ".join(tracks)}): name the kind to read')
+    if kind is not None and kind not in tracks:
+        raise ValueError(f'{path} has no {kind} (it has {", ".join(tracks)})')
+    return tracks[kind] if kind is not None else next(iter(tracks.values()))
+
+
+def read_tracks(path: str | Path) -> dict[str, list[Box | None]]:
+    """Boxes from a ``poses.csv`` written by :func:`track_sequence`, by kind of target (one
+    list for one target, a head's and a hand's for a person), None where not tracked.
 
     Raises:
         ValueError: The file is not such a table (its header lacks the box columns, or a box
             value is not a number); the message names the file.
     """
     columns = ('box_x', 'box_y', 'box_w', 'box_h')
-    boxes: list[Box | None] = []
+    boxes: dict[str, list[Box | None]] = {}
     try:
         with Path(path).open(newline='') as handle:
             reader = csv.DictReader(handle)
@@ -235,7 +316,8 @@ def read_poses(path: str | Path) -> list[Box | None]:
                 raise ValueError(f'{path} is not a poses.csv written by `track`: no column {", ".join(missing)}')
             for row in reader:
                 values = [row[k] for k in columns]
-                boxes.append(None if '' in values or None in values else tuple(float(v) for v in values))
+                box = None if '' in values or None in values else tuple(float(v) for v in values)
+                boxes.setdefault(row.get('kind') or '', []).append(box)
     except (UnicodeDecodeError, csv.Error) as err:
         raise ValueError(f'{path} is not a poses.csv written by `track`: {err}') from err
-    return boxes
+    return boxes or {'': []}

@@ -5,12 +5,14 @@ location of the hand(s)". A person here is a head (head-and-shoulders contour) a
 (open-hand contour), each its own :class:`~human_tracker.vision.target.TargetTracker` over the
 same frames and cues. The two share what they know of the face: the head's tracker finds the
 face (its proposals), and the hand's tracker, which must keep off the face (a face is skin of
-about a hand's size), is handed where the face is on every frame (:meth:`PersonTracker._face_of`)
-instead of running a detector of its own.
+about a hand's size), is handed where the head's contour puts the face while a face has
+just been found on the head, instead of running its own detector (which looks when the head
+has no fresh face: :meth:`PersonTracker._face_of`).
 
-Ids: every time a target is taken up (its filter starts TRACKING after WAITING or LOST) it
-gets a new id, never reused while the tracker lives; a target LOST keeps no id. A consumer
-that sees the same id on two frames sees the same followed target.
+Ids: every time a target is taken up (its filter starts TRACKING after WAITING or LOST, or
+restarts farther than the target's width from where it was: onto another face, another
+person) it gets a new id, never reused while the tracker lives; a target LOST keeps no id. A
+consumer that sees the same id on two frames sees the same followed target.
 """
 
 from __future__ import annotations
@@ -80,6 +82,7 @@ class PersonTracker:
     trackers: dict[str, TargetTracker] = field(init=False)
     ids: dict[str, int] = field(init=False)
     last_id: int = field(default=0, init=False)
+    last_states: dict[str, np.ndarray] = field(init=False)
 
     def __post_init__(self) -> None:
         if not self.kinds or len(set(self.kinds)) != len(self.kinds) or not set(self.kinds) <= set(KINDS):
@@ -91,10 +94,9 @@ class PersonTracker:
                 self.templates.get(kind) or make_template(kind),
                 replace(self.filter_parameters, seed=seed),
                 self.parameters.get(kind) or parameters_for(kind),
-                # A hand beside a followed head is told where the face is (module docstring).
-                detect_faces=not (kind == 'hand' and 'head' in self.kinds),
             )
         self.ids = dict.fromkeys(self.kinds, 0)
+        self.last_states = {}
 
     @property
     def uses_skin(self) -> bool:
@@ -111,6 +113,7 @@ class PersonTracker:
         for kind, tracker in self.trackers.items():
             tracker.reset()
             self.ids[kind] = 0
+        self.last_states.clear()
 
     def process(
         self, image: np.ndarray, motion: np.ndarray | None = None, skin: np.ndarray | None = None
@@ -131,21 +134,28 @@ class PersonTracker:
                 face = self._face_of(tracker, result)
             else:
                 result = tracker.process(image, motion, skin, face=face)
-            if result.tracking and (not was_tracking or self.ids[kind] == 0):
+            if result.tracking and (not was_tracking or self.ids[kind] == 0 or self._jumped(kind, result)):
                 self.last_id += 1
                 self.ids[kind] = self.last_id
             elif not result.tracking:
                 self.ids[kind] = 0
+            if result.estimate is not None:
+                self.last_states[kind] = result.estimate.state
             outcomes.append(TrackedTarget(self.ids[kind], kind, 1, result))
         return outcomes
+
+    def _jumped(self, kind: str, result: TargetResult) -> bool:
+        """Whether the filter restarted farther than the target's width (its scale) from its
+        last estimate."""
+        last = self.last_states.get(kind)
+        if not result.initialised or last is None or result.estimate is None:
+            return False
+        return float(np.hypot(*(result.estimate.state[:2] - last[:2]))) > last[2]
 
     @staticmethod
     def _face_of(head: TargetTracker, result: TargetResult) -> tuple[float, float, float, float] | None:
         """Where the person's face is (x, y, w, h, camera pixels): where the head's contour puts it
-        while its face has just been found on it, else the last face found on the head (a head
-        that slid onto the raised arm would send the hand to the face), None before any."""
-        if head.last_face is None:
-            return None
-        if result.tracking and head.frames_without_own_face <= FRESH_FACE_FRAMES:
-            return FACE_ON_HEAD.box(result.estimate.state)
-        return tuple(v / head.scale for v in head.last_face)  # type: ignore[return-value]
+        while a face has just been found on it, else None (a head that slid onto the raised arm
+        would send the hand to the face): the hand's own detector looks then."""
+        fresh = head.last_face is not None and head.frames_without_own_face <= FRESH_FACE_FRAMES
+        return FACE_ON_HEAD.box(result.estimate.state) if result.tracking and fresh else None

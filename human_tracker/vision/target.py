@@ -356,9 +356,9 @@ class TargetTracker:
 
     Frames, boxes, estimates and parameters are in the camera's pixels; the filter itself
     (``filter``) works at the working resolution, ``scale`` working pixels per camera pixel.
-    With ``detect_faces`` False it runs no face detector of its own: a hand that avoids faces
-    is handed, on every frame, the face of the person's head that another filter follows
-    (``process(..., face=...)``, :mod:`~human_tracker.vision.people`).
+    A hand that avoids faces can be handed the face of the person's head that another filter
+    follows (``process(..., face=...)``, :mod:`~human_tracker.vision.people`): on such a frame
+    its own detector does not run.
     """
 
     template: ContourTemplate
@@ -379,14 +379,13 @@ class TargetTracker:
     previous_frame: np.ndarray | None = field(default=None, init=False)
     start_box: tuple[float, float, float, float] | None = field(default=None, init=False)
     started_from_box: bool = field(default=False, init=False)
-    detect_faces: bool = True
     detector: FaceDetector | None = field(default=None, init=False)
     frames: int = field(default=0, init=False)
 
     def __post_init__(self) -> None:
         self.parameters.validate()
         self.filter = ContourTracker(self.template, self.filter_parameters)
-        if self._wants_faces and self.detect_faces and face_detector_available():
+        if self._wants_faces and face_detector_available():
             self.detector = FaceDetector()
 
     @property
@@ -396,7 +395,7 @@ class TargetTracker:
     @property
     def proposals_problem(self) -> str | None:
         """Why the face detector asked for is off (dlib missing), or None."""
-        if self._wants_faces and self.detect_faces and self.detector is None:
+        if self._wants_faces and self.detector is None:
             wanted = 'proposals: faces' if self.parameters.proposals == 'faces' else 'avoid_faces'
             return f'{wanted} needs dlib (pip install dlib-bin, or apt install python3-dlib); running without'
         return None
@@ -540,9 +539,9 @@ class TargetTracker:
                 optical-flow motion) of the same frame, at any resolution of it (a cue stage
                 publishes at its own working width); it is brought to the working size.
             skin: Optional ``uint8`` skin labels of the same frame, likewise.
-            face: With ``avoid_faces`` and no detector of its own (``detect_faces`` False):
-                the face on this frame (x, y, w, h, camera pixels) where another tracker
-                places it, or None when it has none.
+            face: With ``avoid_faces``: the face on this frame (x, y, w, h, camera pixels)
+                where another tracker places it, used instead of a run of this tracker's
+                own detector; None: the detector runs as scheduled.
 
         Returns:
             The outcome, its estimate in the camera's pixels.
@@ -554,8 +553,9 @@ class TargetTracker:
         if set_aside:
             motion = None
         skin = self._at_working('skin labels', skin, image.shape[:2])
-        if p.avoid_faces and not self.detect_faces:
-            self._avoid_given_face(None if face is None else tuple(v * self.scale for v in face))
+        handed = face is not None and p.avoid_faces
+        if handed:
+            self.last_face, self.face_misses = tuple(v * self.scale for v in face), 0
         bins = colour_bins(_exposure_gain(to_working(image, p.working_width))) if p.likelihood == 'fused' else None
         # Grey before the reduction, as the cue stages do: a colour frame and its grey version
         # then give the same edges.
@@ -581,7 +581,7 @@ class TargetTracker:
             self._settle_on_start_box(edges, likelihood_motion, likelihood_skin, bins)
         given_box = None if self.start_box is None else tuple(v * self.scale for v in self.start_box)
         self.start_box = None
-        detections = self._detect(image)
+        detections = None if handed else self._detect(image)
         # Faces are the target's proposals, or (avoid_faces) what the hand is not.
         head_faces = detections if p.proposals == 'faces' else None
         states = np.array([FACE_ON_HEAD.state(d.box) for d in head_faces]) if head_faces else None
@@ -796,16 +796,6 @@ class TargetTracker:
             self.last_face = None
         self.face_misses += 1
         return found
-
-    def _avoid_given_face(self, face: tuple[float, float, float, float] | None) -> None:
-        """The face handed in for ``avoid_faces`` (working pixels), kept as a detected one is
-        (:meth:`_detect_face_to_avoid`): a face missing on a few frames is still where it was."""
-        if face is not None:
-            self.last_face, self.face_misses = face, 0
-            return
-        self.face_misses += 1
-        if self.face_misses >= SEARCH_AFTER_MISSES:
-            self.last_face = None
 
     def _anchor_on_face(
         self, face: Detection, state: np.ndarray, given_box: tuple[float, float, float, float] | None = None

@@ -13,7 +13,9 @@ from human_tracker.evaluation.accuracy import real_people_table
 def test_bars_are_applied_to_the_measured_figures() -> None:
     results = {
         'speed': {
-            'stages_ms': {'640x480': {'particle_filter_500': 0.8, 'pipeline': 4.0, 'hand_pipeline': 7.0}},
+            'stages_ms': {
+                '640x480': {'particle_filter_500': 0.8, 'pipeline': 4.0, 'hand_pipeline': 7.0, 'person_pipeline': 9.0}
+            },
             'trackers_ms_640x480': {'ours (background cue)': 3.0, 'KCF': 2.0, 'CSRT': 25.0},
         },
         'accuracy': [
@@ -33,6 +35,12 @@ def test_bars_are_applied_to_the_measured_figures() -> None:
             {'sequence': 'trellis', 'tracker': 'CSRT', 'precision_20px': 0.6},
             {'sequence': 'hand2', 'tracker': 'ours (background + skin)', 'precision_20px': 0.3},
             {'sequence': 'hand2', 'tracker': 'CSRT', 'precision_20px': 0.2},
+            {
+                'sequence': 'hand2',
+                'tracker': 'person (background + skin, no box)',
+                'precision_20px': 0.4,
+                'confident_wrong_max': 0.07,
+            },
         ],
         'skin': [
             {'sequence': 'hgr', 'method': 'cells', 'precision': 0.9, 'recall': 0.8, 'f1': 0.85},
@@ -66,6 +74,7 @@ def test_bars_are_applied_to_the_measured_figures() -> None:
         'particle filter step, 500 particles (ms) <= 1': (0.8, 1.0, True),
         'head pipeline (ms) <= CSRT / 5': (4.0, 5.0, True),
         'hand pipeline (ms) <= 3 KCF': (7.0, 6.0, False),
+        'person pipeline, head and one hand (ms) <= 2.5 head pipeline': (9.0, 10.0, True),
         'a: mean precision at 20 px >= CamShift, MIL, KCF': (0.9, 0.95, False),
         'b: mean precision at 20 px >= CamShift, MIL, KCF': (0.9, 0.9, True),
         'trellis: mean precision at 20 px >= CamShift, MIL, KCF': (0.7, 0.0, True),
@@ -79,6 +88,7 @@ def test_bars_are_applied_to_the_measured_figures() -> None:
         'trellis (ours): confident-wrong share, worst run <= 0.05': (0.1, 0.05, False),
         'trellis (ours, no box): confident-wrong share, worst run <= 0.05': (0.08, 0.05, False),
         'hand2 (ours): confident-wrong share, worst run <= 0.05': (0.0, 0.05, True),
+        'hand2 (person, no box): confident-wrong share, worst run <= 0.05': (0.07, 0.05, False),
         'hgr, cells: skin F1 >= 0.92': (0.85, 0.92, False),
         'hgr, cells: skin recall >= 0.9': (0.8, 0.9, False),
         'hgr, pixels: skin F1 >= 0.92': (0.88, 0.92, False),
@@ -113,6 +123,8 @@ def test_the_summaries_of_real_people_come_from_the_run(tmp_path: Path) -> None:
             _scores('hand2', 'ours (background + skin, no box)', 0.35, 0.2, 0.45),
             _scores('hand2', 'paper (background + skin)', 0.2, 0.1, 0.3),
             _scores('hand2', 'CSRT', 0.206, 0.206, 0.206),
+            _scores('hand2', 'person (background + skin)', 0.45, 0.4, 0.5, 0.04),
+            _scores('hand2', 'person (background + skin, no box)', 0.4, 0.4, 0.4, 0.03),
             _scores('trellis', 'ours (background cue)', 0.9, 0.8, 1.0),
             _scores('trellis', 'ours (background cue, no box)', 0.75, 0.75, 0.75, 0.037),
             _scores('trellis', 'paper (background cue)', 0.05, 0.0, 0.1),
@@ -136,8 +148,9 @@ def test_the_summaries_of_real_people_come_from_the_run(tmp_path: Path) -> None:
     ]
     table = real_people_table(results['accuracy']).splitlines()
     assert table[2:] == [
-        '| trellis | 0.900 [0.800, 1.000] | 0 | 0.750 | 0.037 | 0.050 | - | - | 0.026 | 1.000 |',
-        '| hand2 | 0.400 [0.300, 0.500] | 0.06 | 0.350 [0.200, 0.450] | 0 | 0.200 | - | - | - | 0.206 |',
+        '| trellis | 0.900 [0.800, 1.000] | 0 | 0.750 | 0.037 | 0.050 | - | - | 0.026 | 1.000 | - | - |',
+        '| hand2 | 0.400 [0.300, 0.500] | 0.06 | 0.350 [0.200, 0.450] | 0 | 0.200 | - | - | - | 0.206 '
+        '| 0.450 [0.400, 0.500] (0.04) | 0.400 (0.03) |',
     ]
     document = tmp_path / 'README.md'
     document.write_text('# x\n<!-- bench:real -->\nold\n<!-- /bench:real -->\n\nafter\n')

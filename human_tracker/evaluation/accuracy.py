@@ -54,7 +54,8 @@ _REPO = Path(__file__).resolve().parents[2]
 
 def by_sequence_and_tracker(rows: list[dict[str, object]]) -> dict[str, dict[str, dict[str, object]]]:
     """The accuracy rows of the real sequences (those run without a box too), by sequence and
-    by tracker: ``ours``, ``ours, no box``, ``paper`` or the baseline's name; hands last."""
+    by tracker: ``ours``, ``ours, no box``, ``paper``, ``person``, ``person, no box`` or the
+    baseline's name; hands last."""
     table: dict[str, dict[str, dict[str, object]]] = {}
     for row in rows:
         tracker = str(row['tracker'])
@@ -79,28 +80,35 @@ def wrong_cell(row: dict[str, object]) -> str:
 
 def real_people_table(rows: list[dict[str, object]]) -> str:
     """Markdown table of the sequences run without a box too: ours (from the first box and
-    without), the paper's tracker and OpenCV's trackers, mean precision at 20 px."""
+    without), the paper's tracker and OpenCV's trackers, mean precision at 20 px; for a hand,
+    ours following the whole person too (the hand scored)."""
     real = by_sequence_and_tracker(rows)
     columns = ['from the first box', 'confident-wrong, worst run', 'without a box', 'confident-wrong, worst run']
     columns += ["the paper's tracker, from the box", *MAIN_WHEEL_BASELINES, *CONTRIB_BASELINES]
+    columns += ['as a person, from the box', 'as a person, without a box']
     lines = ['| sequence | ' + ' | '.join(columns) + ' |', '|---|' + '---|' * len(columns)]
     for sequence, by in real.items():
         cells = [precision_cell(by['ours']), wrong_cell(by['ours'])]
         cells += [precision_cell(by['ours, no box']), wrong_cell(by['ours, no box'])]
         others = ('paper', *MAIN_WHEEL_BASELINES, *CONTRIB_BASELINES)
         cells += [precision_cell(by.get(name), spread=False) for name in others]
+        for name in ('person', 'person, no box'):
+            row = by.get(name)
+            cells.append('-' if row is None else f'{precision_cell(row)} ({wrong_cell(row)})')
         lines.append(f'| {sequence} | ' + ' | '.join(cells) + ' |')
     return '\n'.join(lines) + '\n'
 
 
 def compare_on_folder(folder: str | Path, contrib_python: Path | None) -> Iterator[dict[str, object]]:
     """:func:`compare_on_sequence` on every sequence of ``folder`` (its sub-folders with a
-    ``groundtruth.txt``, by name), from the first box and without, with the paper's tracker;
-    each row gains the ``sequence`` name. A sequence whose name holds ``hand`` is a hand's
-    (``../shared/data/real/hand2``), any other a head's unless it says otherwise."""
+    ``groundtruth.txt``, by name), from the first box and without, with the paper's tracker
+    (and, for a hand, ours following the whole person); each row gains the ``sequence`` name. A
+    sequence whose name holds ``hand`` is a hand's (``../shared/data/real/hand2``), any other
+    a head's unless it says otherwise."""
     for path in sorted(p.parent for p in Path(folder).glob('*/groundtruth.txt')):
         target = 'hand' if 'hand' in path.name else None
-        for row in compare_on_sequence(path, contrib_python, target, without_box=True, paper=True):
+        person = target == 'hand'
+        for row in compare_on_sequence(path, contrib_python, target, without_box=True, paper=True, person=person):
             yield {'sequence': path.name, **row}
 
 
@@ -139,13 +147,16 @@ def compare_on_sequence(
     target: str | None = None,
     without_box: bool = False,
     paper: bool = False,
+    person: bool = False,
 ) -> list[dict[str, object]]:
     """Rows (tracker, first run's precision at 20 px, success AUC, mean error, ms per frame; precision over runs).
 
     ``target`` overrides what the sequence says it outlines (a folder of frames says
     nothing: head); ``without_box`` adds our tracker started by itself (no first box);
     ``paper`` adds the paper's tracker from the first box (``likelihood: paper``,
-    ``proposals: off``: the shape and cue likelihoods of eqs. 1-4 and §3.2 alone).
+    ``proposals: off``: the shape and cue likelihoods of eqs. 1-4 and §3.2 alone); ``person``
+    adds ours following the whole person (head and hand, :mod:`~human_tracker.vision.people`)
+    from the target's first box and without one, the target's own track scored.
     """
     sequence = open_sequence(path)
     target = target or sequence.target or 'head'
@@ -169,19 +180,23 @@ def compare_on_sequence(
             variants.append(('ours', None, None))
         if paper:
             variants.append(('paper', init, replace(parameters_for(target), likelihood='paper', proposals='off')))
+        if person:
+            variants += [('person', init, None), ('person', None, None)]
         for name, start, parameters in variants:
             ours = []
             for seed in SEEDS:
                 options = TrackOptions(
-                    target=target,
+                    target='person' if name == 'person' else target,
                     init=start,
+                    init_kind=target if name == 'person' else None,
                     filter_parameters=TrackerParameters(seed=seed),
                     target_parameters=parameters,
                     progress=False,
                     video=False,
                 )
                 summary = track_sequence(folder, Path(scratch) / 'ours', options)
-                ours.append((read_poses(Path(scratch) / 'ours' / 'poses.csv'), float(summary['ms_per_frame'])))
+                boxes = read_poses(Path(scratch) / 'ours' / 'poses.csv', target if name == 'person' else None)
+                ours.append((boxes, float(summary['ms_per_frame'])))
             cues = 'background + skin' if summary['skin'] else 'background cue'
             rows.append(_row(f'{name} ({cues}{"" if start else ", no box"})', ours, scored))
         for name in MAIN_WHEEL_BASELINES:

@@ -16,6 +16,7 @@ from human_tracker.io.images import message_to_bgr8, to_mono8
 from human_tracker.vision.background import BackgroundModel
 from human_tracker.vision.measurement import edge_map
 from human_tracker.vision.optical_flow import OpticalFlow
+from human_tracker.vision.people import PersonTracker
 from human_tracker.vision.resolution import to_working, working_scale
 from human_tracker.vision.skin import SkinSegmenter, default_skin_model
 from human_tracker.vision.target import TargetParameters, TargetTracker, parameters_for
@@ -57,7 +58,9 @@ def stage_timings(
     background + flow + the head tracker with 500 particles, motion-weighted, all at the
     default working width; ``pipeline_full_size``: the same at full size) and
     ``hand_pipeline`` (conversion + background + skin + the hand tracker: colour edges and
-    the colour term, at the working width), all on the same frames. The pipelines' figures are
+    the colour term, at the working width) and ``person_pipeline`` (the same cues, a head's
+    tracker from the first box and a hand's starting by itself,
+    :mod:`~human_tracker.vision.people`), all on the same frames. The pipelines' figures are
     means, not medians: the face detector runs on one frame in ``detect_every``, and a median
     would leave it out.
     """
@@ -97,6 +100,17 @@ def stage_timings(
         return hand.process(image, hand_cue.apply(to_mono8(working)), skin)
 
     results['hand_pipeline'] = _ms_per_frame(hand_pipeline, count, np.mean)
+    person = PersonTracker(('head', 'hand'), filter_parameters)
+    person.initialise_from_box(boxes[0], 'head')
+    person_cue = BackgroundModel()
+
+    def person_pipeline(i: int) -> object:
+        image = message_to_bgr8(messages[i])
+        working = to_working(image, hand_width)
+        skin = segmenter.segment(working, working_scale(image.shape[1], hand_width))
+        return person.process(image, person_cue.apply(to_mono8(working)), skin)
+
+    results['person_pipeline'] = _ms_per_frame(person_pipeline, count, np.mean)
     return {k: round(v, 3) for k, v in results.items()}
 
 

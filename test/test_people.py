@@ -18,6 +18,7 @@ from human_tracker.vision.background import BackgroundModel
 from human_tracker.vision.faces import FACE_ON_HEAD, Detection
 from human_tracker.vision.people import FRESH_FACE_FRAMES, PersonTracker, kinds_of
 from human_tracker.vision.resolution import to_working
+from human_tracker.vision.skin import SkinSegmenter, default_skin_model
 from human_tracker.vision.target import TargetResult, TargetTracker, parameters_for
 from human_tracker.vision.templates import head_and_shoulders
 from human_tracker.vision.tracker import TrackerParameters, TrackEstimate
@@ -38,14 +39,16 @@ def test_what_is_followed() -> None:
 
 
 def test_one_kind_is_exactly_the_target_tracker() -> None:
-    """Following one head through PersonTracker changes nothing: same states, same statuses."""
+    """Following one head through PersonTracker changes nothing: same states, same statuses,
+    with every cue given (skin labels too)."""
     alone = TargetTracker(head_and_shoulders(), TrackerParameters(seed=3), parameters_for('head'))
     person = PersonTracker(('head',), TrackerParameters(seed=3))
-    cues = BackgroundModel()
+    cues, skin = BackgroundModel(), SkinSegmenter(default_skin_model())
     for _, image in _frames('head_basic', 40):
         motion = cues.apply(to_working(to_mono8(image), 320))
-        expected = alone.process(image, motion)
-        (got,) = person.process(image, motion)
+        labels = skin.segment(to_working(image, 320), 0.5)
+        expected = alone.process(image, motion, labels)
+        (got,) = person.process(image, motion, labels)
         assert got.result.status == expected.status and got.kind == 'head' and got.person == 1
         if expected.estimate is not None:
             np.testing.assert_array_equal(got.result.estimate.state, expected.estimate.state)

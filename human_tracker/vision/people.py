@@ -118,8 +118,8 @@ class PersonTracker:
     def process(
         self, image: np.ndarray, motion: np.ndarray | None = None, skin: np.ndarray | None = None
     ) -> list[TrackedTarget]:
-        """Track every target on one frame (arguments as :meth:`TargetTracker.process`; the skin
-        labels go to the hand only, which is what uses them).
+        """Track every target on one frame (arguments as :meth:`TargetTracker.process`; beside a
+        hand, the skin labels go to the hand only: a head-and-shoulders outline is not skin).
 
         Returns:
             One outcome per kind, in the order of ``kinds``.
@@ -130,7 +130,7 @@ class PersonTracker:
             tracker = self.trackers[kind]
             was_tracking = tracker.status == TRACKING
             if kind == 'head':
-                result = tracker.process(image, motion)
+                result = tracker.process(image, motion, skin if len(self.kinds) == 1 else None)
                 face = self._face_of(tracker, result)
             else:
                 result = tracker.process(image, motion, skin, face=face)

@@ -1,11 +1,11 @@
 """Launch the tracker on a robot's camera.
 
 ros2 launch human_tracker human_tracker.launch.py image:=/camera/color/image_raw
-    [camera_info:=/camera/color/camera_info] [namespace:=head_tracker] [target:=head|hand]
+    [camera_info:=/camera/color/camera_info] [namespace:=head_tracker] [target:=head|hand|person]
     [params_file:=/path/to/human_tracker.yaml] [single_process:=true]
     [rviz:=true] [camera_frame:=camera_color_optical_frame]
 
-With ``target:=hand`` the skin stage runs too (in process, or as ``skin_node``). With
+With ``target:=hand`` (or ``person``) the skin stage runs too (in process, or as ``skin_node``). With
 ``rviz:=true`` RViz opens the package's view (``config/human_tracker.rviz``: the target's
 contour and label, the annotated frame) in the nodes' namespace, fixed on ``camera_frame``,
 the image's optical frame; where rviz2 is not installed, the launch says so and goes on.
@@ -41,7 +41,7 @@ def generate_launch_description() -> LaunchDescription:
     image = LaunchConfiguration('image')
     target = LaunchConfiguration('target')
     single = LaunchConfiguration('single_process')
-    hand = PythonExpression(["'", target, "' == 'hand'"])
+    hand = PythonExpression(["'", target, "' in ('hand', 'person')"])
     remappings = [
         ('image', image),
         ('image/compressed', [image, '/compressed']),
@@ -83,7 +83,7 @@ def generate_launch_description() -> LaunchDescription:
                 default_value=os.path.join(share, 'config', 'human_tracker.yaml'),
                 description='parameters file',
             ),
-            DeclareLaunchArgument('target', default_value='head', description='head or hand'),
+            DeclareLaunchArgument('target', default_value='head', description='head, hand or person'),
             DeclareLaunchArgument(
                 'single_process', default_value='true', description='one process (pipeline) or one per node'
             ),

@@ -25,8 +25,16 @@ from test_target import track
 
 from human_tracker.demo import node_arguments
 from human_tracker.evaluation.metrics import summarise
-from human_tracker.io.bags import CAMERA_TOPIC, COMPRESSED_CAMERA_TOPIC, DEPTH_TOPIC, read_frames, write_scene_bag
-from human_tracker.offline import TrackOptions, read_poses, track_sequence
+from human_tracker.io.bags import (
+    CAMERA_FRAME,
+    CAMERA_TOPIC,
+    COMPRESSED_CAMERA_TOPIC,
+    DEPTH_TOPIC,
+    read_frames,
+    write_scene_bag,
+)
+from human_tracker.io.images import message_to_bgr8
+from human_tracker.offline import TrackOptions, read_poses, read_tracks, track_sequence
 from human_tracker.ros.collector import PoseCollector
 from human_tracker.ros.processes import NodeProcess
 from human_tracker.scenes.generator import HEAD_WIDTH, SCENES, render_scene
@@ -234,6 +242,47 @@ def test_pipeline_follows_a_hand_with_the_skin_stage_in_process(tmp_path) -> Non
     assert summary['precision_20px'] >= 0.9
 
 
+def test_a_person_pipeline_names_each_target_on_targets(tmp_path) -> None:
+    """target:=person: each tracked target on ``targets`` as ``person_1/<kind>_<id>``, ids never
+    shared between kinds; the hand's positions are the offline command's and follow the hand."""
+    bag = REPO / 'bags' / 'hand_wave'
+    frames = list(read_frames(bag))
+    args = node_arguments(COMPRESSED_CAMERA_TOPIC, True) + ['-p', 'target:=person']
+    pipeline = NodeProcess('human_tracker.ros.pipeline', args, environment(), tmp_path / 'pipeline.log')
+    collector = replay_and_collect(
+        pipeline, bag, COMPRESSED_CAMERA_TOPIC, tmp_path, len(frames), diagnostics_of='/tracker_node'
+    )
+    assert 'configured: skin segmentation' in pipeline.output()
+    ids: dict[str, set[int]] = {'head': set(), 'hand': set()}
+    hand: list[tuple[float, float] | None] = []
+    height, width = message_to_bgr8(frames[0].message).shape[:2]
+    k = default_camera_matrix(width, height)
+    for frame in frames:
+        centre = None
+        for odometry in collector.targets.get(frame.stamp_ns, []):
+            assert odometry.header.frame_id == CAMERA_FRAME
+            person, name = odometry.child_frame_id.split('/')
+            kind, ident = name.split('_')
+            assert person == 'person_1' and int(ident) > 0
+            ids[kind].add(int(ident))
+            if kind == 'hand':
+                p = odometry.pose.pose.position
+                centre = (k[0, 0] * p.x / p.z + k[0, 2], k[1, 1] * p.y / p.z + k[1, 2])
+        hand.append(centre)
+    assert ids['hand'] and not ids['head'] & ids['hand']
+    track_sequence(bag, tmp_path / 'offline', TrackOptions(target='person', video=False, progress=False))
+    offline = read_tracks(tmp_path / 'offline' / 'poses.csv')['hand']
+    assert [c is not None for c in hand] == [b is not None for b in offline]
+    near = 0
+    for centre, box, frame in zip(hand, offline, frames, strict=True):
+        if centre is not None:
+            np.testing.assert_allclose(centre, (box[0] + box[2] / 2, box[1] + box[3] / 2), atol=0.05)
+            gx, gy, gw, gh = frame.ground_truth
+            near += np.hypot(centre[0] - gx - gw / 2, centre[1] - gy - gh / 2) <= 20.0
+    print(f'person over DDS: ids {ids}, hand within 20 px on {near} of {len(frames)} frames')
+    assert near >= 0.9 * len(frames)
+
+
 def _set(client: AsyncParameterClient, node: Node, name: str, value) -> SetParametersResult:
     future = client.set_parameters([Parameter(name, value=value)])
     rclpy.spin_until_future_complete(node, future, timeout_sec=10.0)
@@ -290,7 +339,7 @@ def test_params_file_loads_and_gains_change_at_run_time(tmp_path) -> None:
         ('tracker_node', 'num_particles:=-5', 'num_particles'),
         ('tracker_node', 'num_particles:=many', 'num_particles'),
         ('tracker_node', 'search_halfwidth:=0.0', 'search_halfwidth'),
-        ('tracker_node', 'target:=elbow', "unknown target 'elbow'"),
+        ('tracker_node', 'target:=elbow', "target must be one of head, hand, person, got 'elbow'"),
         ('tracker_node', 'template_file:=/nonexistent/template.json', 'cannot load template'),
         ('tracker_node', 'motion_mode:=telepathy', 'motion_mode must be one of'),
         ('tracker_node', 'interior_weight:=0.5', 'interior_weight'),

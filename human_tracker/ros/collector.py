@@ -7,6 +7,7 @@ import time
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PolygonStamped, PoseWithCovarianceStamped, TwistWithCovarianceStamped
+from nav_msgs.msg import Odometry
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -27,7 +28,8 @@ _LATCHED = QoSProfile(
 
 
 class PoseCollector(Node):
-    """Subscribes ``pose``, ``velocity`` and ``contour`` (reliable, deep queue) and stores them by stamp.
+    """Subscribes ``pose``, ``velocity``, ``contour`` and ``targets`` (reliable, deep queue) and
+    stores them by stamp (``targets``: every target's message of that stamp).
 
     It also keeps the latest ``/diagnostics`` values of every node, by status name, every
     ``status`` message in order (its state and values), and with ``markers`` the ``markers``
@@ -47,6 +49,8 @@ class PoseCollector(Node):
         self.create_subscription(TwistWithCovarianceStamped, 'velocity', self._on_velocity, _KEEP_ALL)
         self.statuses: list[dict[str, str]] = []
         self.create_subscription(DiagnosticArray, 'status', self._on_status, _LATCHED)
+        self.targets: dict[int, list[Odometry]] = {}
+        self.create_subscription(Odometry, 'targets', self._on_target, _KEEP_ALL)
         self.markers: dict[int, MarkerArray] = {}
         if markers:
             self.create_subscription(MarkerArray, 'markers', self._on_markers, _KEEP_ALL)
@@ -54,6 +58,9 @@ class PoseCollector(Node):
     def _on_pose(self, msg: PoseWithCovarianceStamped) -> None:
         self.poses[stamp_ns(msg.header)] = msg
         self.frame_ids.add(msg.header.frame_id)
+
+    def _on_target(self, msg: Odometry) -> None:
+        self.targets.setdefault(stamp_ns(msg.header), []).append(msg)
 
     def _on_velocity(self, msg: TwistWithCovarianceStamped) -> None:
         self.velocities[stamp_ns(msg.header)] = msg

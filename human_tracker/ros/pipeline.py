@@ -70,8 +70,8 @@ def build_pipeline() -> list[Node]:
     use_skin = declare(
         selector,
         'skin_cue',
-        tracker.template.name == 'hand',
-        'Segment skin in process (§3.2); default: on when the tracker follows a hand.',
+        'hand' in tracker.people.kinds,
+        'Segment skin in process (§3.2); default: on when the tracker follows a hand (or a person).',
         read_only=True,
     )
     skin_stage = SkinNode(subscribe_image=False) if use_skin else None

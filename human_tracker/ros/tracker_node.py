@@ -14,6 +14,12 @@ and ``/diagnostics``. Every output copies the header of the image it was compute
 A box on ``init_roi`` (sensor_msgs/RegionOfInterest, image pixels) starts the filter there on
 the next frame; the service ``~/reset`` (std_srvs/Trigger) forgets the target: WAITING for
 motion or a box.
+
+With ``target: person`` it follows a head and a hand (:mod:`~human_tracker.vision.people`):
+the topics above are the head's (the primary target, as for ``target: head``), and
+``targets`` (nav_msgs/Odometry, one message per tracked target per frame) gives every target:
+``child_frame_id`` ``person_<person>/<kind>_<id>``, the pose and its covariance in the image's
+optical frame (``header``); the twist is not estimated per target (unknown covariance).
 """
 
 from __future__ import annotations
@@ -25,7 +31,14 @@ from typing import Any
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from geometry_msgs.msg import Point32, PolygonStamped, PoseWithCovarianceStamped, TwistWithCovarianceStamped
+from geometry_msgs.msg import (
+    Point32,
+    PolygonStamped,
+    PoseWithCovariance,
+    PoseWithCovarianceStamped,
+    TwistWithCovarianceStamped,
+)
+from nav_msgs.msg import Odometry
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image, RegionOfInterest
 from std_msgs.msg import Header
@@ -39,10 +52,11 @@ from human_tracker.ros.markers import cleared_markers, target_markers
 from human_tracker.ros.stage import DEFERRED, ImageStage, ParameterSpec, spin_node, stamp_ns
 from human_tracker.vision.camera import POSITION_NOISE, metric_positions, position_covariance, undistort_pixels
 from human_tracker.vision.depth import depth_image_to_metres, region_depth
+from human_tracker.vision.people import PersonTracker, TrackedTarget, kinds_of
 from human_tracker.vision.resolution import same_frame
 from human_tracker.vision.target import LOST, TargetParameters, TargetResult, TargetTracker, parameters_for
 from human_tracker.vision.templates import make_template
-from human_tracker.vision.tracker import TrackerParameters, box_from_state, check_box_in_image
+from human_tracker.vision.tracker import TrackerParameters, TrackEstimate, box_from_state, check_box_in_image
 
 __all__ = ['FILTER_PARAMETERS', 'TARGET_PARAMETERS', 'TrackerNode', 'main']
 
@@ -176,19 +190,28 @@ class TrackerNode(ImageStage):
     def __init__(self, *, subscribe_image: bool = True, **kwargs: Any) -> None:
         super().__init__('tracker_node', subscribe_image=subscribe_image, **kwargs)
         target = declare(
-            self, 'target', 'head', 'What to track: head (head-and-shoulders) or hand (open hand).', read_only=True
+            self,
+            'target',
+            'head',
+            'What to track: head (head-and-shoulders), hand (open hand) or person (a head and a hand, each with its id '
+            'on targets).',
+            read_only=True,
         )
+        kinds = kinds_of(target)
         template_file = declare(
             self, 'template_file', '', 'JSON template replacing the built-in one (empty: built-in).', read_only=True
         )
         num_points = declare(
             self, 'num_points', 48, 'N, measurement points along the spline (§2.3).', low=4, high=1024, read_only=True
         )
-        self.template = make_template(target, num_points, template_file)
-        self.target = target
+        # The primary target (the head of a person) is the one of pose, contour, status and markers.
+        self.kind = kinds[0]
+        self.template = make_template(self.kind, num_points, template_file)
         filter_parameters = self.bind_parameters(TrackerParameters(), FILTER_PARAMETERS, self._apply_filter)
-        target_parameters = self.bind_parameters(parameters_for(target), TARGET_PARAMETERS, self._apply_target)
-        self.tracker = TargetTracker(self.template, filter_parameters, target_parameters)
+        target_parameters = self.bind_parameters(parameters_for(self.kind), TARGET_PARAMETERS, self._apply_target)
+        templates = {kind: make_template(kind, num_points) for kind in kinds} | {self.kind: self.template}
+        self.people = PersonTracker(kinds, filter_parameters, {self.kind: target_parameters}, templates)
+        self.tracker = self.people.trackers[self.kind]
         if self.tracker.proposals_problem is not None:
             self.get_logger().warn(self.tracker.proposals_problem)
         box = [
@@ -207,8 +230,9 @@ class TrackerNode(ImageStage):
         self.target_width = declare(
             self,
             'target_width',
-            _TARGET_WIDTHS.get(target, 0.16),
-            'Physical width of the head (or hand), metres: depth from scale.',
+            _TARGET_WIDTHS[self.kind],
+            'Physical width of the head (or hand), metres: depth from scale (a person: the head; its hand '
+            f'{_TARGET_WIDTHS["hand"]}).',
             low=0.01,
             high=2.0,
         )
@@ -273,6 +297,7 @@ class TrackerNode(ImageStage):
         self.contour_pub = self.create_publisher(PolygonStamped, 'contour', RESULT_QOS)
         self.debug_pub = self.create_publisher(Image, 'debug_image', RESULT_QOS)
         self.markers_pub = self.create_publisher(MarkerArray, 'markers', RESULT_QOS)
+        self.targets_pub = self.create_publisher(Odometry, 'targets', RESULT_QOS) if len(kinds) > 1 else None
         self.markers_shown = False
         status_period = declare(
             self,
@@ -357,11 +382,12 @@ class TrackerNode(ImageStage):
     def warm_up(self) -> None:
         """Run the compiled kernels once, with this node's settings, so the first real frame is not late."""
         filter_parameters = TrackerParameters(num_particles=2, min_scale=1.0)
-        probe = TargetTracker(self.template, filter_parameters, self.tracker.parameters)
-        probe.initialise_from_box((8.0, 8.0, 16.0, 16.0))  # a box: the appearance kernels run too
         rng = np.random.default_rng(0)
         blank = np.zeros((32, 32), dtype=np.uint8)
-        probe.process(rng.integers(0, 256, (32, 32, 3), dtype=np.uint8), blank, blank)
+        for tracker in self.people.trackers.values():
+            probe = TargetTracker(tracker.template, filter_parameters, tracker.parameters)
+            probe.initialise_from_box((8.0, 8.0, 16.0, 16.0))  # a box: the appearance kernels run too
+            probe.process(rng.integers(0, 256, (32, 32, 3), dtype=np.uint8), blank, blank)
 
     def on_image(self, msg: Any) -> None:
         """Remember the stamp of every frame that reached this node, usable or not, then process it."""
@@ -371,14 +397,15 @@ class TrackerNode(ImageStage):
         super().on_image(msg)
 
     def _apply_filter(self, parameters: TrackerParameters) -> None:
-        self.tracker.set_filter_parameters(parameters)
+        for tracker in self.people.trackers.values():
+            tracker.set_filter_parameters(parameters)
 
     def _apply_target(self, parameters: TargetParameters) -> None:
         self.tracker.parameters = parameters
 
     def reset_state(self) -> None:
         """Time went backwards: start over (the initial box applies again, held frames are dropped)."""
-        self.tracker.reset()
+        self.people.reset()
         self.counters.skipped += len(self.pending)
         self.pending.clear()
         self.received_stamps.clear()
@@ -465,7 +492,8 @@ class TrackerNode(ImageStage):
         stamp = stamp_ns(header)
         if self.last_tracked_ns >= 0 and stamp - self.last_tracked_ns > self.max_gap * 1e9:
             # After a gap the dynamics predict nothing: let motion restart the filter.
-            self.tracker.mark_lost()
+            for tracker in self.people.trackers.values():
+                tracker.mark_lost()
             self.get_logger().warn(
                 f'{(stamp - self.last_tracked_ns) / 1e9:.2f} s since the last frame: target marked lost',
                 throttle_duration_sec=5.0,
@@ -493,7 +521,8 @@ class TrackerNode(ImageStage):
                 self.init_box = None
                 self.start_problem = f'init_box ignored: {err}'
                 self.get_logger().error(self.start_problem)
-        result = self.tracker.process(image, motion, skin)
+        outcomes = self.people.process(image, motion, skin)
+        result = outcomes[0].result
         self.last_result = result
         self.status_header = header
         if result.status != self.status_sent:
@@ -509,6 +538,8 @@ class TrackerNode(ImageStage):
             self._publish(result, header, size, interval, depth)
         else:
             self.last_distance = None
+        if self.targets_pub is not None:
+            self._publish_targets(outcomes, header, size, depth)
         if self.markers_pub.get_subscription_count() > 0:
             self._publish_markers(result, header, size)
         if self.debug_pub.get_subscription_count() > 0:
@@ -545,6 +576,42 @@ class TrackerNode(ImageStage):
         )
         return None
 
+    def _pose(
+        self,
+        tracker: TargetTracker,
+        estimate: TrackEstimate,
+        shape: tuple[int, ...],
+        width: float,
+        depth: np.ndarray | None,
+    ) -> tuple[PoseWithCovariance, tuple[Any, ...], float | None, np.ndarray]:
+        """The metric pose of ``tracker``'s ``estimate`` (a target ``width`` metres across) and its
+        covariance; also the camera model, the distance used (metres: from ``depth`` when it has
+        readings in the target's region, else None: from the scale) and the particles' positions."""
+        assert tracker.particles is not None
+        k, distortion = self.lens(shape[1], shape[0], self.image_rectified)
+        measured = None
+        if depth is not None:
+            measured = region_depth(depth, box_from_state(estimate.state, tracker.template), shape[:2])
+            if measured is None and tracker is self.tracker:  # counted for the primary target's pose
+                self.frames_without_depth_reading += 1
+        distance, spread = (None, None) if measured is None else (measured[0] + self.surface_to_centre, measured[1])
+        camera = (tracker.template, k, width, distortion)
+        position = metric_positions(estimate.state, *camera, depth=distance)
+        cloud = metric_positions(tracker.particles, *camera, depth=distance)
+        pose = PoseWithCovariance()
+        pose.pose.position.x, pose.pose.position.y, pose.pose.position.z = (float(v) for v in position)
+        theta = float(estimate.state[3])
+        pose.pose.orientation.z = float(np.sin(theta / 2.0))
+        pose.pose.orientation.w = float(np.cos(theta / 2.0))
+        covariance = np.zeros((6, 6))
+        covariance[:3, :3] = position_covariance(
+            cloud, position, estimate.confidence, width, tuple(self.position_noise), spread
+        )
+        covariance[3, 3] = covariance[4, 4] = _UNKNOWN_VARIANCE
+        covariance[5, 5] = estimate.covariance[3, 3]
+        pose.covariance = covariance.reshape(-1).tolist()
+        return pose, camera, distance, cloud
+
     def _publish(
         self, result: TargetResult, header: Any, shape: tuple[int, ...], interval: float, depth: np.ndarray | None
     ) -> None:
@@ -553,29 +620,9 @@ class TrackerNode(ImageStage):
         estimate = result.estimate
         particles, previous = self.tracker.particles, self.tracker.previous_particles
         assert estimate is not None and particles is not None and previous is not None
-        k, distortion = self.lens(shape[1], shape[0], self.image_rectified)
-        measured = None
-        if depth is not None:
-            measured = region_depth(depth, box_from_state(estimate.state, self.template), shape[:2])
-            if measured is None:
-                self.frames_without_depth_reading += 1
-        distance, spread = (None, None) if measured is None else (measured[0] + self.surface_to_centre, measured[1])
-        camera = (self.template, k, self.target_width, distortion)
-        position = metric_positions(estimate.state, *camera, depth=distance)
-        cloud = metric_positions(particles, *camera, depth=distance)
         pose = PoseWithCovarianceStamped()
         pose.header = header
-        pose.pose.pose.position.x, pose.pose.pose.position.y, pose.pose.pose.position.z = (float(v) for v in position)
-        theta = float(estimate.state[3])
-        pose.pose.pose.orientation.z = float(np.sin(theta / 2.0))
-        pose.pose.pose.orientation.w = float(np.cos(theta / 2.0))
-        covariance = np.zeros((6, 6))
-        covariance[:3, :3] = position_covariance(
-            cloud, position, estimate.confidence, self.target_width, tuple(self.position_noise), spread
-        )
-        covariance[3, 3] = covariance[4, 4] = _UNKNOWN_VARIANCE
-        covariance[5, 5] = estimate.covariance[3, 3]
-        pose.pose.covariance = covariance.reshape(-1).tolist()
+        pose.pose, camera, distance, cloud = self._pose(self.tracker, estimate, shape, self.target_width, depth)
         self.pose_pub.publish(pose)
         # Distances of the same kind on both frames: measured on both, or both from the scale.
         previous_distance, self.last_distance = self.last_distance, distance
@@ -588,6 +635,23 @@ class TrackerNode(ImageStage):
         contour.header = header
         contour.polygon.points = [Point32(x=float(x), y=float(y), z=0.0) for x, y in estimate.contour]
         self.contour_pub.publish(contour)
+
+    def _publish_targets(
+        self, outcomes: list[TrackedTarget], header: Any, shape: tuple[int, ...], depth: np.ndarray | None
+    ) -> None:
+        """One Odometry on ``targets`` per target TRACKING on this frame, named by its person, kind and id."""
+        for outcome in outcomes:
+            if not outcome.result.tracking:
+                continue
+            width = self.target_width if outcome.kind == self.kind else _TARGET_WIDTHS[outcome.kind]
+            odometry = Odometry()
+            odometry.header = header
+            odometry.child_frame_id = f'person_{outcome.person}/{outcome.kind}_{outcome.id}'
+            estimate = outcome.result.estimate
+            assert estimate is not None
+            odometry.pose = self._pose(self.people.trackers[outcome.kind], estimate, shape, width, depth)[0]
+            odometry.twist.covariance = (np.eye(6) * _UNKNOWN_VARIANCE).reshape(-1).tolist()
+            self.targets_pub.publish(odometry)
 
     def _publish_markers(self, result: TargetResult, header: Any, shape: tuple[int, ...]) -> None:
         """The target's contour and label for RViz while the filter has an estimate; cleared once when it has none."""
@@ -602,7 +666,7 @@ class TrackerNode(ImageStage):
         if depth is None or not result.tracking:
             depth = float(metric_positions(estimate.state, self.template, k, self.target_width)[2])
         contour = undistort_pixels(estimate.contour, k, distortion)
-        markers = target_markers(header, contour, depth, k, kind=self.target, ident=0, status=result.status)
+        markers = target_markers(header, contour, depth, k, kind=self.kind, ident=0, status=result.status)
         self.markers_pub.publish(markers)
         self.markers_shown = True
 
@@ -616,7 +680,7 @@ class TrackerNode(ImageStage):
 
     def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         """Forget the target; the start box does not apply again (it was the first frame's)."""
-        self.tracker.reset()
+        self.people.reset()
         self.init_box = self.requested_box = None
         self.last_result = None
         self._publish_status()

@@ -27,7 +27,7 @@ from human_tracker.io.images import to_mono8
 from human_tracker.io.sequences import open_sequence
 from human_tracker.vision.background import BackgroundModel
 from human_tracker.vision.optical_flow import OpticalFlow
-from human_tracker.vision.people import PersonTracker, TrackedTarget, kinds_of
+from human_tracker.vision.people import PersonTracker, TrackedTarget, kinds_of, targets_line
 from human_tracker.vision.resolution import to_working, working_scale
 from human_tracker.vision.skin import SkinSegmenter, default_skin_model, has_colour
 from human_tracker.vision.target import TargetParameters, parameters_for
@@ -261,8 +261,7 @@ def _annotated_frame(image: np.ndarray, outcomes: list[TrackedTarget], truth: Bo
             label=f'{label} {first.status}',
             detections=detections,
         )
-    states = ' '.join(f'{o.kind} {o.id or "-"} {o.result.status}' for o in outcomes)
-    shown = annotate(image, truth=truth, label=f'{label} {states}', detections=detections)
+    shown = annotate(image, truth=truth, label=f'{label} {targets_line(outcomes)}', detections=detections)
     for outcome in outcomes:
         estimate = outcome.result.estimate
         if estimate is not None and outcome.result.tracking:

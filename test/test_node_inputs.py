@@ -13,10 +13,12 @@ from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CompressedImage, Image
 
+from human_tracker.drawing import id_colour
 from human_tracker.io.bags import read_frames
 from human_tracker.ros.background_node import BackgroundNode
 from human_tracker.ros.image_conversion import ENCODINGS, array_to_compressed, array_to_image, message_to_bgr8
 from human_tracker.ros.tracker_node import TrackerNode
+from human_tracker.vision.skin import SkinSegmenter, default_skin_model
 
 RELIABLE = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
 IMAGE_ENCODINGS = sorted(e for e in ENCODINGS if e != '32FC2')  # 32FC2 is flow, not a picture
@@ -139,3 +141,56 @@ def test_tracker_debug_image_and_pose_carry_the_input_header() -> None:
     assert [m.header for m in debug] == sent
     assert [p.header for p in poses] == sent
     assert all(m.encoding == 'bgr8' and (m.width, m.height) == (640, 480) for m in debug)
+
+
+def test_a_person_debug_image_draws_each_target_in_its_id_colour() -> None:
+    """target person: the hand, once it has an id, is drawn in that id's colour on debug_image."""
+    frames = list(read_frames('bags/hand_wave'))[:40]
+    rclpy.init()
+    tracker = TrackerNode(
+        parameter_overrides=[
+            Parameter('target', value='person'),
+            Parameter('skin_input', value=True),
+            Parameter('qos_reliability', value='reliable'),
+            Parameter('qos_depth', value=50),
+        ]
+    )
+    source = Node('camera')
+    publisher = source.create_publisher(Image, 'image', RELIABLE)
+    skin_publisher = source.create_publisher(Image, 'skin', RELIABLE)
+    segmenter = SkinSegmenter(default_skin_model())
+    debug: list[Image] = []
+    source.create_subscription(Image, 'debug_image', debug.append, RELIABLE)
+    executor = SingleThreadedExecutor()
+    executor.add_node(tracker)
+    executor.add_node(source)
+    try:
+        deadline = time.monotonic() + 20.0
+        while (
+            skin_publisher.get_subscription_count() < 1 or tracker.debug_pub.get_subscription_count() < 1
+        ) and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+        for frame in frames:
+            image = message_to_bgr8(frame.message)
+            for topic, msg in (
+                (skin_publisher, array_to_image(segmenter.segment(image), 'mono8')),
+                (publisher, array_to_image(image, 'bgr8')),
+            ):
+                msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(frame.stamp_ns, 10**9)
+                topic.publish(msg)
+        deadline = time.monotonic() + 30.0
+        while len(debug) < len(frames) and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+        hand = next(o for o in tracker.last_outcomes if o.kind == 'hand')
+    finally:
+        executor.shutdown()
+        tracker.destroy_node()
+        source.destroy_node()
+        rclpy.try_shutdown()
+    assert len(debug) == len(frames) and hand.id > 0 and hand.result.tracking
+    shown = message_to_bgr8(debug[-1])
+    x, y, w, h = (int(round(v)) for v in hand.result.estimate.box)
+    side = shown[y + h // 4 : y + h, x]  # the box's left side, below its tag
+    print(f'hand {hand.id}, box {hand.result.estimate.box}: left side {side[::8].tolist()}')
+    drawn = np.abs(side.astype(np.int64) - id_colour(hand.id)).max(axis=1) <= 40  # anti-aliased
+    assert drawn.mean() > 0.9

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import re
 import time
 from collections.abc import Callable
 from typing import Any
@@ -270,6 +271,8 @@ def test_a_person_pipeline_names_each_target_on_targets(tmp_path) -> None:
                 centre = (k[0, 0] * p.x / p.z + k[0, 2], k[1, 1] * p.y / p.z + k[1, 2])
         hand.append(centre)
     assert ids['hand'] and not ids['head'] & ids['hand']
+    listed = collector.diagnostics['/tracker_node']['targets']  # the last frame's
+    assert re.fullmatch(r'head (\d+|-) [A-Z]+, hand (\d+|-) [A-Z]+', listed), listed
     track_sequence(bag, tmp_path / 'offline', TrackOptions(target='person', video=False, progress=False))
     offline = read_tracks(tmp_path / 'offline' / 'poses.csv')['hand']
     assert [c is not None for c in hand] == [b is not None for b in offline]

@@ -45,14 +45,14 @@ from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
-from human_tracker.drawing import annotate
+from human_tracker.drawing import annotate, draw_target
 from human_tracker.ros.common import LATCHED_QOS, RESULT_QOS, WORKING_WIDTH_DESCRIPTION, declare, node_status
 from human_tracker.ros.image_conversion import ImageConversionError, array_to_image, image_to_array
 from human_tracker.ros.markers import cleared_markers, target_markers
 from human_tracker.ros.stage import DEFERRED, ImageStage, ParameterSpec, spin_node, stamp_ns
 from human_tracker.vision.camera import POSITION_NOISE, metric_positions, position_covariance, undistort_pixels
 from human_tracker.vision.depth import depth_image_to_metres, region_depth
-from human_tracker.vision.people import PersonTracker, TrackedTarget, kinds_of
+from human_tracker.vision.people import PersonTracker, TrackedTarget, kinds_of, targets_line
 from human_tracker.vision.resolution import same_frame
 from human_tracker.vision.target import LOST, TargetParameters, TargetResult, TargetTracker, parameters_for
 from human_tracker.vision.templates import make_template
@@ -289,6 +289,7 @@ class TrackerNode(ImageStage):
 
         self.last_tracked_ns = -1
         self.last_result: TargetResult | None = None
+        self.last_outcomes: list[TrackedTarget] = []
         # Frames waiting for their masks: stamp, arrival, image, header, the cues handed over with it.
         self.pending: deque[tuple[int, float, np.ndarray, Any, dict[str, np.ndarray | None]]] = deque()
 
@@ -523,7 +524,7 @@ class TrackerNode(ImageStage):
                 self.get_logger().error(self.start_problem)
         outcomes = self.people.process(image, motion, skin)
         result = outcomes[0].result
-        self.last_result = result
+        self.last_result, self.last_outcomes = result, outcomes
         self.status_header = header
         if result.status != self.status_sent:
             self._publish_status()
@@ -550,6 +551,8 @@ class TrackerNode(ImageStage):
                 else f'{result.status} conf {estimate.confidence:.2f} motion {estimate.motion_support:.2f}'
                 f' skin {estimate.skin_support:.2f} appearance {estimate.appearance_distance:.2f}'
             )
+            if len(outcomes) > 1:
+                label = f'{targets_line(outcomes)} | {self.kind}: {label}'
             debug = annotate(
                 image,
                 contour=None if estimate is None else estimate.contour,
@@ -557,8 +560,12 @@ class TrackerNode(ImageStage):
                 particles=self.tracker.particles,
                 label=label,
                 motion=motion if motion is not None else skin,
-                detections=result.detections,
+                detections=tuple(d for o in outcomes for d in o.result.detections),
             )
+            for outcome in outcomes[1:]:
+                other = outcome.result.estimate
+                if other is not None and outcome.result.tracking:
+                    draw_target(debug, outcome.id, f'{outcome.kind} {outcome.id}', other.contour, other.box)
             self.debug_pub.publish(array_to_image(debug, 'bgr8', header))
         return result
 
@@ -682,7 +689,7 @@ class TrackerNode(ImageStage):
         """Forget the target; the start box does not apply again (it was the first frame's)."""
         self.people.reset()
         self.init_box = self.requested_box = None
-        self.last_result = None
+        self.last_result, self.last_outcomes = None, []
         self._publish_status()
         response.success = True
         response.message = 'WAITING for motion, or a box on init_roi'
@@ -721,6 +728,8 @@ class TrackerNode(ImageStage):
         }
         if self.start_problem is not None:
             extra['cannot_start'] = self.start_problem
+        if len(self.people.kinds) > 1:
+            extra['targets'] = targets_line(self.last_outcomes)
         return self.tracker.status, {**extra, **self._target_values()}
 
 

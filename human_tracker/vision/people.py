@@ -17,6 +17,7 @@ consumer that sees the same id on two frames sees the same followed target.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import NamedTuple
 
@@ -27,7 +28,7 @@ from human_tracker.vision.target import TRACKING, TargetParameters, TargetResult
 from human_tracker.vision.templates import ContourTemplate, make_template
 from human_tracker.vision.tracker import TrackerParameters
 
-__all__ = ['KINDS', 'TARGETS', 'PersonTracker', 'TrackedTarget', 'kinds_of']
+__all__ = ['KINDS', 'TARGETS', 'PersonTracker', 'TrackedTarget', 'kinds_of', 'targets_line']
 
 KINDS = ('head', 'hand')
 TARGETS = (*KINDS, 'person')
@@ -60,6 +61,11 @@ class TrackedTarget(NamedTuple):
     kind: str
     person: int
     result: TargetResult
+
+
+def targets_line(outcomes: Sequence[TrackedTarget]) -> str:
+    """Every target's kind, id (- while it has none) and state: ``head 1 TRACKING, hand - LOST``."""
+    return ', '.join(f'{o.kind} {o.id or "-"} {o.result.status}' for o in outcomes)
 
 
 @dataclass

@@ -77,9 +77,10 @@ def _track(options: argparse.Namespace) -> int:
 
 
 def _eval(options: argparse.Namespace) -> int:
+    from human_tracker.evaluation.identity import identity_scores
     from human_tracker.evaluation.metrics import summarise
     from human_tracker.io.sequences import open_sequence, read_groundtruth
-    from human_tracker.offline import read_tracks
+    from human_tracker.offline import read_ids, read_tracks
 
     tracks = read_tracks(options.poses)
     truth_path = Path(options.truth)
@@ -95,7 +96,8 @@ def _eval(options: argparse.Namespace) -> int:
     # A person's table: the ground truth is scored against the target that matches it best.
     scores = {kind: summarise(boxes, truth) for kind, boxes in tracks.items()}
     kind = max(scores, key=lambda k: scores[k]['precision_20px'])
-    print(json.dumps({**scores[kind], **({'scored_kind': kind} if kind else {})}, indent=2))
+    identity = identity_scores(read_ids(options.poses)[kind], tracks[kind], truth)
+    print(json.dumps({**scores[kind], **identity, **({'scored_kind': kind} if kind else {})}, indent=2))
     return 0
 
 

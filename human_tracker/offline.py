@@ -21,6 +21,7 @@ import numpy as np
 from tqdm import tqdm
 
 from human_tracker.drawing import annotate, draw_target
+from human_tracker.evaluation.identity import identity_scores
 from human_tracker.evaluation.metrics import Box, summarise
 from human_tracker.evaluation.plots import plot_run
 from human_tracker.io.images import to_mono8
@@ -34,7 +35,7 @@ from human_tracker.vision.target import TargetParameters, parameters_for
 from human_tracker.vision.templates import make_template
 from human_tracker.vision.tracker import TrackerParameters, check_box_in_image
 
-__all__ = ['CUES', 'POSE_COLUMNS', 'TrackOptions', 'read_poses', 'read_tracks', 'track_sequence']
+__all__ = ['CUES', 'POSE_COLUMNS', 'TrackOptions', 'read_ids', 'read_poses', 'read_tracks', 'track_sequence']
 
 CUES = ('background', 'flow', 'none')
 POSE_COLUMNS = (
@@ -224,6 +225,7 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
         summary['scored_kind'] = scored
     if any(t is not None for t in truth):
         summary.update(summarise(predicted[scored], truth))
+        summary.update(identity_scores(ids[scored], predicted[scored], truth))
     summary['plots'] = [p.name for p in plot_run(out, predicted[scored], truth, sequence.name)]
     (out / 'summary.json').write_text(json.dumps(summary, indent=2) + '\n')
     return summary
@@ -305,8 +307,25 @@ def read_tracks(path: str | Path) -> dict[str, list[Box | None]]:
         ValueError: The file is not such a table (its header lacks the box columns, or a box
             value is not a number); the message names the file.
     """
+    return _read_table(path)[0]
+
+
+def read_ids(path: str | Path) -> dict[str, list[int]]:
+    """The targets' ids from a ``poses.csv`` (as :func:`read_tracks`; 0 where a target has none).
+    A kind whose rows carry no id at all (the demo's table, from ``pose`` over DDS) is one
+    track: id 1 wherever it has a box."""
+    boxes, ids = _read_table(path)
+    for kind, column in ids.items():
+        if not any(column):
+            ids[kind] = [int(box is not None) for box in boxes[kind]]
+    return ids
+
+
+def _read_table(path: str | Path) -> tuple[dict[str, list[Box | None]], dict[str, list[int]]]:
+    """Boxes and ids of a ``poses.csv``, by kind (see :func:`read_tracks`)."""
     columns = ('box_x', 'box_y', 'box_w', 'box_h')
     boxes: dict[str, list[Box | None]] = {}
+    ids: dict[str, list[int]] = {}
     try:
         with Path(path).open(newline='') as handle:
             reader = csv.DictReader(handle)
@@ -316,7 +335,9 @@ def read_tracks(path: str | Path) -> dict[str, list[Box | None]]:
             for row in reader:
                 values = [row[k] for k in columns]
                 box = None if '' in values or None in values else tuple(float(v) for v in values)
-                boxes.setdefault(row.get('kind') or '', []).append(box)
+                kind = row.get('kind') or ''
+                boxes.setdefault(kind, []).append(box)
+                ids.setdefault(kind, []).append(int(row.get('id') or 0))
     except (UnicodeDecodeError, csv.Error) as err:
         raise ValueError(f'{path} is not a poses.csv written by `track`: {err}') from err
-    return boxes or {'': []}
+    return boxes or {'': []}, ids or {'': []}

@@ -123,8 +123,8 @@ def test_the_summaries_of_real_people_come_from_the_run(tmp_path: Path) -> None:
             _scores('hand2', 'ours (background + skin, no box)', 0.35, 0.2, 0.45),
             _scores('hand2', 'paper (background + skin)', 0.2, 0.1, 0.3),
             _scores('hand2', 'CSRT', 0.206, 0.206, 0.206),
-            _scores('hand2', 'person (background + skin)', 0.45, 0.4, 0.5, 0.04),
-            _scores('hand2', 'person (background + skin, no box)', 0.4, 0.4, 0.4, 0.03),
+            {**_scores('hand2', 'person (background + skin)', 0.45, 0.4, 0.5, 0.04), 'idf1_mean': 0.123},
+            {**_scores('hand2', 'person (background + skin, no box)', 0.4, 0.4, 0.4, 0.03), 'idf1_mean': 0.2},
             _scores('trellis', 'ours (background cue)', 0.9, 0.8, 1.0),
             _scores('trellis', 'ours (background cue, no box)', 0.75, 0.75, 0.75, 0.037),
             _scores('trellis', 'paper (background cue)', 0.05, 0.0, 0.1),
@@ -150,7 +150,7 @@ def test_the_summaries_of_real_people_come_from_the_run(tmp_path: Path) -> None:
     assert table[2:] == [
         '| trellis | 0.900 [0.800, 1.000] | 0 | 0.750 | 0.037 | 0.050 | - | - | 0.026 | 1.000 | - | - |',
         '| hand2 | 0.400 [0.300, 0.500] | 0.06 | 0.350 [0.200, 0.450] | 0 | 0.200 | - | - | - | 0.206 '
-        '| 0.450 [0.400, 0.500] (0.04) | 0.400 (0.03) |',
+        '| 0.450 [0.400, 0.500] (0.04), IDF1 0.12 | 0.400 (0.03), IDF1 0.20 |',
     ]
     document = tmp_path / 'README.md'
     document.write_text('# x\n<!-- bench:real -->\nold\n<!-- /bench:real -->\n\nafter\n')

@@ -140,6 +140,8 @@ def test_track_a_person_offline(tmp_path, capsys) -> None:
     assert main(['eval', str(tmp_path / 'poses.csv'), str(BAGS / 'hand_wave')]) == 0
     scored = json.loads(capsys.readouterr().out)
     assert scored['scored_kind'] == 'hand' and scored['precision_20px'] == summary['precision_20px']
+    # One hand id, on the hand from its first frame: no switch, as `track` counted.
+    assert summary['id_switches'] == scored['id_switches'] == 0 and scored['idf1'] == summary['idf1'] >= 0.95
     # A start box goes to the target it is named for; the other starts by itself.
     box = next(f.ground_truth for f, _ in _frames('hand_wave', 1))
     options = TrackOptions(target='person', init=box, init_kind='hand', video=False, progress=False)
@@ -160,7 +162,7 @@ def test_a_real_person_head_and_hand_start_by_themselves(tmp_path) -> None:
     rows = list(csv.DictReader((tmp_path / 'poses.csv').open()))
     heads = [r for r in rows if r['kind'] == 'head']
     hands = [r for r in rows if r['kind'] == 'hand']
-    print(summary['precision_20px'], summary['targets'])
+    print(summary['precision_20px'], summary['targets'], {k: summary[k] for k in ('mota', 'idf1', 'id_switches')})
     assert next(i for i, r in enumerate(heads) if r['id']) < 5
     assert next(i for i, r in enumerate(hands) if r['id']) < 30
     assert summary['scored_kind'] == 'hand' and summary['precision_20px'] >= 0.3

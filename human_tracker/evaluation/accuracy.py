@@ -22,11 +22,13 @@ from dataclasses import replace
 from pathlib import Path
 
 import cv2
+import numpy as np
 
 from human_tracker.evaluation.baselines import run_baseline
+from human_tracker.evaluation.identity import identity_scores
 from human_tracker.evaluation.metrics import Box, summarise
 from human_tracker.io.sequences import open_sequence
-from human_tracker.offline import TrackOptions, read_poses, track_sequence
+from human_tracker.offline import TrackOptions, read_ids, read_poses, track_sequence
 from human_tracker.vision.target import TargetParameters, parameters_for
 from human_tracker.vision.tracker import TrackerParameters
 
@@ -81,7 +83,7 @@ def wrong_cell(row: dict[str, object]) -> str:
 def real_people_table(rows: list[dict[str, object]]) -> str:
     """Markdown table of the sequences run without a box too: ours (from the first box and
     without), the paper's tracker and OpenCV's trackers, mean precision at 20 px; for a hand,
-    ours following the whole person too (the hand scored)."""
+    ours following the whole person too (the hand scored; with its mean IDF1)."""
     real = by_sequence_and_tracker(rows)
     columns = ['from the first box', 'confident-wrong, worst run', 'without a box', 'confident-wrong, worst run']
     columns += ["the paper's tracker, from the box", *MAIN_WHEEL_BASELINES, *CONTRIB_BASELINES]
@@ -94,7 +96,9 @@ def real_people_table(rows: list[dict[str, object]]) -> str:
         cells += [precision_cell(by.get(name), spread=False) for name in others]
         for name in ('person', 'person, no box'):
             row = by.get(name)
-            cells.append('-' if row is None else f'{precision_cell(row)} ({wrong_cell(row)})')
+            cells.append(
+                '-' if row is None else f'{precision_cell(row)} ({wrong_cell(row)}), IDF1 {row["idf1_mean"]:.2f}'
+            )
         lines.append(f'| {sequence} | ' + ' | '.join(cells) + ' |')
     return '\n'.join(lines) + '\n'
 
@@ -124,11 +128,24 @@ def _contrib(name: str, folder: Path, init: Box, contrib_python: Path) -> tuple[
     return [None if b is None else tuple(b) for b in data['boxes']], float(data['ms_per_frame'])
 
 
-def _row(tracker: str, runs: list[tuple[list[Box | None], float]], scored: list[Box | None]) -> dict[str, object]:
-    """The first run's scores and ms per frame, the precision's mean, min and max over ``runs``, and
-    the largest confident-wrong share of any run."""
+def _row(
+    tracker: str,
+    runs: list[tuple[list[Box | None], float]],
+    scored: list[Box | None],
+    ids: list[list[int]] | None = None,
+) -> dict[str, object]:
+    """The first run's scores and ms per frame, the precision's mean, min and max over ``runs``, the
+    largest confident-wrong share of any run; with each run's target ``ids``, the mean IDF1 and
+    identity switches (:mod:`~human_tracker.evaluation.identity`)."""
     summaries = [summarise(boxes, scored) for boxes, _ in runs]
     precisions = [summary['precision_20px'] for summary in summaries]
+    identity = {}
+    if ids is not None:
+        scores = [identity_scores(run_ids, boxes, scored) for run_ids, (boxes, _) in zip(ids, runs, strict=True)]
+        identity = {
+            'idf1_mean': round(float(np.mean([s['idf1'] for s in scores])), 3),
+            'id_switches_mean': round(float(np.mean([s['id_switches'] for s in scores])), 1),
+        }
     return {
         'tracker': tracker,
         **summaries[0],
@@ -138,6 +155,7 @@ def _row(tracker: str, runs: list[tuple[list[Box | None], float]], scored: list[
         'precision_20px_min': round(min(precisions), 3),
         'precision_20px_max': round(max(precisions), 3),
         'confident_wrong_max': max(summary['confident_wrong'] for summary in summaries),
+        **identity,
     }
 
 
@@ -183,7 +201,7 @@ def compare_on_sequence(
         if person:
             variants += [('person', init, None), ('person', None, None)]
         for name, start, parameters in variants:
-            ours = []
+            ours, ids = [], []
             for seed in SEEDS:
                 options = TrackOptions(
                     target='person' if name == 'person' else target,
@@ -195,10 +213,13 @@ def compare_on_sequence(
                     video=False,
                 )
                 summary = track_sequence(folder, Path(scratch) / 'ours', options)
-                boxes = read_poses(Path(scratch) / 'ours' / 'poses.csv', target if name == 'person' else None)
+                table = Path(scratch) / 'ours' / 'poses.csv'
+                boxes = read_poses(table, target if name == 'person' else None)
                 ours.append((boxes, float(summary['ms_per_frame'])))
+                by_kind = read_ids(table)
+                ids.append(by_kind[target] if name == 'person' else next(iter(by_kind.values())))
             cues = 'background + skin' if summary['skin'] else 'background cue'
-            rows.append(_row(f'{name} ({cues}{"" if start else ", no box"})', ours, scored))
+            rows.append(_row(f'{name} ({cues}{"" if start else ", no box"})', ours, scored, ids))
         for name in MAIN_WHEEL_BASELINES:
             runs = [
                 run_baseline(name, (f.image for f in frames[first:]), init)

@@ -77,7 +77,7 @@ def _track(options: argparse.Namespace) -> int:
 
 
 def _eval(options: argparse.Namespace) -> int:
-    from human_tracker.evaluation.identity import identity_scores
+    from human_tracker.evaluation.identity import identity_scores, one_track
     from human_tracker.evaluation.metrics import summarise
     from human_tracker.io.sequences import open_sequence, read_groundtruth
     from human_tracker.offline import read_ids, read_tracks
@@ -96,7 +96,7 @@ def _eval(options: argparse.Namespace) -> int:
     # A person's table: the ground truth is scored against the target that matches it best.
     scores = {kind: summarise(boxes, truth) for kind, boxes in tracks.items()}
     kind = max(scores, key=lambda k: scores[k]['precision_20px'])
-    identity = identity_scores(read_ids(options.poses)[kind], tracks[kind], truth)
+    identity = identity_scores({'truth': truth}, one_track(read_ids(options.poses)[kind], tracks[kind]))
     print(json.dumps({**scores[kind], **identity, **({'scored_kind': kind} if kind else {})}, indent=2))
     return 0
 

@@ -21,7 +21,7 @@ import numpy as np
 from tqdm import tqdm
 
 from human_tracker.drawing import annotate, draw_target
-from human_tracker.evaluation.identity import identity_scores
+from human_tracker.evaluation.identity import identity_scores, one_track
 from human_tracker.evaluation.metrics import Box, summarise
 from human_tracker.evaluation.plots import plot_run
 from human_tracker.io.images import to_mono8
@@ -142,6 +142,7 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
     predicted: dict[str, list[Box | None]] = {kind: [] for kind in kinds}
     ids: dict[str, list[int]] = {kind: [] for kind in kinds}
     truth: list[Box | None] = []
+    tracks: dict[str, list[Box | None]] = {}  # several ground-truth tracks, by name
     writer = None
     elapsed = 0.0
     rejected: dict[str, int] = {}
@@ -150,6 +151,8 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
         table.writerow(POSE_COLUMNS)
         for frame in tqdm(sequence, desc=f'tracking {sequence.name}', unit='frame', disable=not options.progress):
             truth.append(frame.ground_truth)
+            for name, box in frame.ground_truths.items():
+                tracks.setdefault(name, [None] * (len(truth) - 1)).append(box)
             if frame.image is None:
                 # Counted, written as a row, and scored as a miss where annotated: never lost.
                 rejected[frame.rejected] = rejected.get(frame.rejected, 0) + 1
@@ -225,10 +228,30 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
         summary['scored_kind'] = scored
     if any(t is not None for t in truth):
         summary.update(summarise(predicted[scored], truth))
-        summary.update(identity_scores(ids[scored], predicted[scored], truth))
+        summary.update(identity_scores({'truth': truth}, one_track(ids[scored], predicted[scored])))
+    if len(tracks) > 1:
+        summary.update(_several_tracks(tracks, predicted, ids))
     summary['plots'] = [p.name for p in plot_run(out, predicted[scored], truth, sequence.name)]
     (out / 'summary.json').write_text(json.dumps(summary, indent=2) + '\n')
     return summary
+
+
+def _several_tracks(
+    tracks: dict[str, list[Box | None]], predicted: dict[str, list[Box | None]], ids: dict[str, list[int]]
+) -> dict[str, object]:
+    """Scores of a sequence with several ground-truth tracks (``person_1/head``, ...): each
+    track's precision against the target of its kind (the last part of its name), and MOTA,
+    IDF1 and identity switches of every target against every track."""
+    scores: dict[str, object] = {}
+    for name, boxes in tracks.items():
+        kind = name.rsplit('/', 1)[-1]
+        if kind in predicted:
+            scores[name] = {'precision_20px': summarise(predicted[kind], boxes)['precision_20px']}
+    reported = [
+        {ids[kind][index]: box for kind, boxes in predicted.items() if (box := boxes[index]) is not None}
+        for index in range(len(next(iter(predicted.values()))))
+    ]
+    return {'tracks': scores, 'all_tracks': identity_scores(tracks, reported)}
 
 
 def _pose_row(index: int, stamp_ns: int, outcome: TrackedTarget) -> list[object]:

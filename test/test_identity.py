@@ -6,7 +6,7 @@ import csv
 
 import pytest
 
-from human_tracker.evaluation.identity import identity_scores
+from human_tracker.evaluation.identity import identity_scores, one_track
 from human_tracker.offline import POSE_COLUMNS, read_ids
 
 BOX = (100.0, 100.0, 40.0, 40.0)
@@ -16,7 +16,7 @@ def test_a_lost_frame_and_a_new_id_by_hand() -> None:
     """Four annotated frames: id 1 twice, nothing, then id 2 on the target.
     MOTA = 1 - (1 miss + 0 false + 1 switch) / 4 = 0.5; IDF1 maps the truth to id 1:
     2 true, 2 missed (frames 3, 4), 1 false (id 2): 2 * 2 / (2 * 2 + 2 + 1) = 4 / 7."""
-    scores = identity_scores([1, 1, 0, 2], [BOX, BOX, None, BOX], [BOX] * 4)
+    scores = identity_scores({'truth': [BOX] * 4}, one_track([1, 1, 0, 2], [BOX, BOX, None, BOX]))
     assert scores == {'mota': 0.5, 'idf1': round(4 / 7, 4), 'id_switches': 1}
 
 
@@ -24,7 +24,7 @@ def test_far_boxes_and_unannotated_frames() -> None:
     """A box 30 px off is a miss and a false report (MOTA 1 - 2/2 = 0 on the one annotated frame
     it is on); frames without truth do not count."""
     off = (130.0, 100.0, 40.0, 40.0)
-    scores = identity_scores([1, 1, 1], [BOX, off, off], [BOX, BOX, None])
+    scores = identity_scores({'truth': [BOX, BOX, None]}, one_track([1, 1, 1], [BOX, off, off]))
     assert scores['id_switches'] == 0
     assert scores['mota'] == pytest.approx(1.0 - 2 / 2)  # frame 2: one miss, one false report
     assert scores['idf1'] == pytest.approx(2 * 1 / (2 * 1 + 1 + 1), abs=1e-4)
@@ -43,3 +43,15 @@ def test_a_table_without_ids_is_one_track(tmp_path) -> None:
                 row.update(zip(('box_x', 'box_y', 'box_w', 'box_h'), box, strict=True))
             table.writerow([row[c] for c in POSE_COLUMNS])
     assert read_ids(path) == {'': [1, 0, 1]}
+
+
+def test_two_tracks_crossing_and_a_swap() -> None:
+    """Two people for three frames; ids 1 and 2 follow them, then swap on the last frame:
+    two switches, MOTA 1 - 2 / 6; IDF1 maps each person to their first id: 4 of 6 true,
+    2 missed, 2 false: 2 * 4 / (2 * 4 + 2 + 2) = 2 / 3. A frame with no person in view does not
+    count, though a target is reported on it."""
+    left, right = BOX, (300.0, 100.0, 40.0, 40.0)
+    truth = {'person_1/head': [left, left, left, None], 'person_2/head': [right, right, right, None]}
+    reported = [{1: left, 2: right}, {1: left, 2: right}, {2: left, 1: right}, {1: left}]
+    scores = identity_scores(truth, reported)
+    assert scores == {'mota': round(1 - 2 / 6, 4), 'idf1': round(2 / 3, 4), 'id_switches': 2}

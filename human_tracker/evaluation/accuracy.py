@@ -25,7 +25,7 @@ import cv2
 import numpy as np
 
 from human_tracker.evaluation.baselines import run_baseline
-from human_tracker.evaluation.identity import identity_scores
+from human_tracker.evaluation.identity import identity_scores, one_track
 from human_tracker.evaluation.metrics import Box, summarise
 from human_tracker.io.sequences import open_sequence
 from human_tracker.offline import TrackOptions, read_ids, read_poses, track_sequence
@@ -141,7 +141,10 @@ def _row(
     precisions = [summary['precision_20px'] for summary in summaries]
     identity = {}
     if ids is not None:
-        scores = [identity_scores(run_ids, boxes, scored) for run_ids, (boxes, _) in zip(ids, runs, strict=True)]
+        scores = [
+            identity_scores({'truth': scored}, one_track(run_ids, boxes))
+            for run_ids, (boxes, _) in zip(ids, runs, strict=True)
+        ]
         identity = {
             'idf1_mean': round(float(np.mean([s['idf1'] for s in scores])), 3),
             'id_switches_mean': round(float(np.mean([s['id_switches'] for s in scores])), 1),

@@ -7,8 +7,8 @@ corners, or no points where the target is out of view).
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator
-from dataclasses import dataclass
+from collections.abc import Iterable, Iterator, Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TypeVar
 
@@ -74,7 +74,8 @@ def guarded(items: Iterable[T], path: Path) -> Iterator[T]:
 
 
 def ground_truth_topic(target: str) -> str:
-    """Topic of the ground-truth outline of ``target`` (``head`` or ``hand``)."""
+    """Topic of the ground-truth outline of ``target`` (``head``, ``hand``, or one of several
+    tracks: ``person_1/head``, ``person_2/hand``, ...)."""
     return f'/ground_truth/{target}'
 
 
@@ -137,7 +138,7 @@ def _raw_image(header: object, pixels: np.ndarray, encoding: str) -> object:
 
 def write_bag(
     path: str | Path,
-    frames: Iterable[tuple[int, np.ndarray, Box | None]],
+    frames: Iterable[tuple[int, np.ndarray, Box | None | Mapping[str, Box | None]]],
     *,
     compressed: bool = True,
     storage: str = 'mcap',
@@ -148,9 +149,11 @@ def write_bag(
 
     Args:
         path: Bag folder to create (must not exist).
-        frames: ``(stamp_ns, (H, W, 3) uint8 BGR image, box or None)`` in time order, each
-            with a fourth item, its registered ``(H, W) uint16`` depth image in millimetres
-            (``16UC1`` on :data:`DEPTH_TOPIC`), when the bag is an RGB-D camera's.
+        frames: ``(stamp_ns, (H, W, 3) uint8 BGR image, truth)`` in time order, ``truth`` a box
+            or None (of ``target``), or several tracks' boxes by name (each on its own topic,
+            :func:`ground_truth_topic`); each with a fourth item, its registered ``(H, W)
+            uint16`` depth image in millimetres (``16UC1`` on :data:`DEPTH_TOPIC`), when the bag
+            is an RGB-D camera's.
         compressed: Record JPEG ``CompressedImage`` on :data:`COMPRESSED_CAMERA_TOPIC`
             (small bags) instead of raw bgr8 ``Image`` on :data:`CAMERA_TOPIC`.
         storage: ``mcap`` or ``sqlite3``.
@@ -169,11 +172,15 @@ def write_bag(
             COMPRESSED_CAMERA_TOPIC if compressed else CAMERA_TOPIC, image_type, typestore=TYPESTORE
         )
         info = writer.add_connection(CAMERA_INFO_TOPIC, 'sensor_msgs/msg/CameraInfo', typestore=TYPESTORE)
-        truth = writer.add_connection(
-            ground_truth_topic(target), 'geometry_msgs/msg/PolygonStamped', typestore=TYPESTORE
-        )
+        truths: dict[str, object] = {}
         depth_connection = None
-        for stamp_ns, image, box, *depth in frames:
+        for stamp_ns, image, truth, *depth in frames:
+            boxes = truth if isinstance(truth, Mapping) else {target: truth}
+            for name in boxes:
+                if name not in truths:
+                    truths[name] = writer.add_connection(
+                        ground_truth_topic(name), 'geometry_msgs/msg/PolygonStamped', typestore=TYPESTORE
+                    )
             header = _header(stamp_ns)
             if depth:
                 if depth_connection is None:
@@ -196,15 +203,19 @@ def write_bag(
                 stamp_ns,
                 TYPESTORE.serialize_cdr(_camera_info(width, height, stamp_ns), 'sensor_msgs/msg/CameraInfo'),
             )
-            writer.write(
-                truth, stamp_ns, TYPESTORE.serialize_cdr(_polygon(stamp_ns, box), 'geometry_msgs/msg/PolygonStamped')
-            )
+            for name, box in boxes.items():
+                polygon = TYPESTORE.serialize_cdr(_polygon(stamp_ns, box), 'geometry_msgs/msg/PolygonStamped')
+                writer.write(truths[name], stamp_ns, polygon)
     return path
 
 
 def write_scene_bag(spec: SceneSpec, path: str | Path, **options: object) -> Path:
     """Render ``spec`` and record it with :func:`write_bag` (same options)."""
-    frames = ((f.stamp_ns, f.image, f.box, *([] if f.depth is None else [f.depth])) for f in render_scene(spec))
+    several = spec.target == 'people'
+    frames = (
+        (f.stamp_ns, f.image, f.targets if several else f.box, *([] if f.depth is None else [f.depth]))
+        for f in render_scene(spec)
+    )
     return write_bag(path, frames, target=spec.target, **options)  # type: ignore[arg-type]
 
 
@@ -218,12 +229,15 @@ class BagFrame:
         message: The deserialised image message (rosbags types: fields as in ROS).
         ground_truth: ``(x, y, w, h)`` box of the target at this stamp, None when the target
             is not annotated or out of view, or when the bag has no ground truth.
+        ground_truths: With no ``target`` asked for, every ground-truth track's box by name
+            (``head``; ``person_1/head``, ``person_1/hand``, ...); ``ground_truth`` is the first.
     """
 
     index: int
     stamp_ns: int
     message: object
     ground_truth: tuple[float, float, float, float] | None
+    ground_truths: dict[str, tuple[float, float, float, float] | None] = field(default_factory=dict)
 
 
 def _deserialize(reader: AnyReader | BareMcapReader, raw: bytes, msgtype: str, path: Path) -> object:
@@ -295,7 +309,8 @@ def open_bag(path: str | Path) -> AnyReader | BareMcapReader:
 
 
 def ground_truth_target(path: str | Path) -> str | None:
-    """What a bag's ground truth outlines (``head``, ``hand``: its ``/ground_truth/<target>`` topic), or None.
+    """What a bag's ground truth outlines (``head``, ``hand``: its ``/ground_truth/<target>``
+    topic; ``person``: several tracks, ``/ground_truth/person_1/head`` and others), or None.
 
     Raises:
         BagError: The bag is missing or unreadable.
@@ -307,6 +322,8 @@ def ground_truth_target(path: str | Path) -> str | None:
             topics = sorted(c.topic for c in reader.connections if c.topic.startswith(prefix))
     except (AnyReaderError, ReaderError, OSError) as err:
         raise BagError(f'cannot read bag {path}: {err}') from err
+    if any('/' in topic[len(prefix) :] for topic in topics):
+        return 'person'
     return topics[0][len(prefix) :] if topics else None
 
 
@@ -340,8 +357,9 @@ def read_frames(path: str | Path, *, camera_topic: str | None = None, target: st
                 for c in reader.connections
                 if c.topic == ground_truth_topic(target)
                 or (target is None and c.topic.startswith(ground_truth_topic('')))
-            ][:1]
-            truth: dict[int, tuple[float, float, float, float] | None] = {}
+            ]
+            names = [c.topic[len(ground_truth_topic('')) :] for c in truth_connections]
+            truths: dict[str, dict[int, tuple[float, float, float, float] | None]] = {name: {} for name in names}
             for conn, _, raw in guarded(reader.messages(connections=truth_connections), path):
                 polygon = _deserialize(reader, raw, conn.msgtype, path)
                 points = np.array([[p.x, p.y] for p in polygon.polygon.points], dtype=np.float64)
@@ -349,10 +367,11 @@ def read_frames(path: str | Path, *, camera_topic: str | None = None, target: st
                 if len(points):
                     lo, hi = points.min(axis=0), points.max(axis=0)
                     box = (float(lo[0]), float(lo[1]), float(hi[0] - lo[0]), float(hi[1] - lo[1]))
-                truth[stamp_ns(polygon.header)] = box
+                truths[conn.topic[len(ground_truth_topic('')) :]][stamp_ns(polygon.header)] = box
             for index, (conn, _, raw) in enumerate(guarded(reader.messages(connections=[camera]), path)):
                 msg = _deserialize(reader, raw, conn.msgtype, path)
                 stamp = stamp_ns(msg.header)
-                yield BagFrame(index, stamp, msg, truth.get(stamp))
+                boxes = {name: truths[name].get(stamp) for name in names}
+                yield BagFrame(index, stamp, msg, boxes[names[0]] if names else None, boxes)
     except (AnyReaderError, ReaderError, OSError) as err:
         raise BagError(f'cannot read bag {path}: {err}') from err

@@ -8,7 +8,7 @@ for a frame that is not annotated.
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -30,7 +30,8 @@ class SequenceError(RuntimeError):
 class SequenceFrame:
     """One frame: index, stamp (nanoseconds), ``(H, W, 3) uint8`` BGR image, ground truth or None.
 
-    ``image`` is None when the frame could not be read or decoded; ``rejected`` says why.
+    ``image`` is None when the frame could not be read or decoded; ``rejected`` says why. A bag
+    with several ground-truth tracks (``person_1/head``, ...) gives each in ``ground_truths``.
     """
 
     index: int
@@ -38,13 +39,15 @@ class SequenceFrame:
     image: np.ndarray | None
     ground_truth: Box | None
     rejected: str = ''
+    ground_truths: dict[str, Box | None] = field(default_factory=dict)
 
 
 @dataclass
 class Sequence:
     """An opened sequence: its name, nominal rate, what its ground truth outlines, and its frames.
 
-    ``target`` is ``head`` or ``hand`` for a bag with ground truth, None otherwise.
+    ``target`` is ``head`` or ``hand`` for a bag with ground truth, ``person`` for one with
+    several tracks (:func:`~human_tracker.io.bags.ground_truth_target`), None otherwise.
     """
 
     name: str
@@ -60,7 +63,9 @@ class Sequence:
                         image, reason = message_to_bgr8(frame.message), ''
                     except ImageConversionError as err:
                         image, reason = None, str(err)
-                    yield SequenceFrame(frame.index, frame.stamp_ns, image, frame.ground_truth, reason)
+                    yield SequenceFrame(
+                        frame.index, frame.stamp_ns, image, frame.ground_truth, reason, frame.ground_truths
+                    )
                 return
             source = open_frames(self.path)
             truth = read_groundtruth(self.path / 'groundtruth.txt') if self.path.is_dir() else []

@@ -2,7 +2,8 @@
 
 A scene is a static camera looking at a textured, cluttered room. In a head scene a
 person's head and shoulders move (translation, scale change, rotation); in a hand scene the
-person stands by and waves an open hand in front of the room, the face in view. People and
+person stands by and waves an open hand in front of the room, the face in view; in a people
+scene a second person, nearer the camera, walks across in front of the one waving. People and
 hands are drawn from primitives (ellipses, polygons, thick lines for the fingers), not from
 the tracker's templates, so a template only approximates the silhouette, as on real video.
 Everything random comes from one seeded generator: the same spec gives the same frames.
@@ -19,7 +20,11 @@ import numpy as np
 
 from human_tracker.vision.camera import default_camera_matrix
 
-__all__ = ['SceneSpec', 'SceneFrame', 'render_scene', 'SCENES']
+__all__ = ['PEOPLE_TARGETS', 'SceneSpec', 'SceneFrame', 'render_scene', 'SCENES']
+
+PEOPLE_TARGETS = ('person_1/head', 'person_1/hand', 'person_2/head')
+"""The ground-truth tracks of a people scene: the waving person's head and hand, and the head of
+the person walking across."""
 
 HEAD_WIDTH = 0.16
 """A head's physical width, metres: a head ``s`` pixels wide is ``fx HEAD_WIDTH / s`` away
@@ -53,7 +58,8 @@ class SceneSpec:
 
     Attributes:
         name: Scene name (the bag is named after it).
-        target: What moves and is ground truth: ``head`` or ``hand``.
+        target: What moves and is ground truth: ``head``, ``hand``, or ``people`` (the
+            targets of :data:`PEOPLE_TARGETS`).
         width: Image width, pixels.
         height: Image height, pixels.
         num_frames: Number of frames.
@@ -105,8 +111,11 @@ class SceneFrame:
         stamp_ns: Time stamp, nanoseconds.
         image: ``(H, W, 3) uint8`` BGR image.
         visible: Whether the person is in view.
-        state: ``(4,)`` true [x, y, s, θ] of the target (centre pixels, width pixels, radians).
+        state: ``(4,)`` true [x, y, s, θ] of the target (centre pixels, width pixels, radians);
+            of the waving person's head in a people scene.
         box: ``(x, y, w, h)`` pixels, axis-aligned box of the head or hand, None when absent.
+        targets: Every ground-truth track's box by name (``person_1/head``, ...; None while
+            out of view): the one target's under ``person_1/<target>``, a people scene's three.
         skin: ``(H, W) bool``, True on the pixels of the face and the hand (their true skin).
         depth: ``(H, W) uint16`` millimetres (0: no reading) registered to ``image``, with
             ``SceneSpec.depth``.
@@ -118,6 +127,7 @@ class SceneFrame:
     visible: bool
     state: np.ndarray
     box: tuple[float, float, float, float] | None = field(default=None)
+    targets: dict[str, tuple[float, float, float, float] | None] = field(default_factory=dict)
     skin: np.ndarray | None = field(default=None, repr=False)
     depth: np.ndarray | None = field(default=None, repr=False)
 
@@ -323,6 +333,15 @@ def _hand_trajectory(spec: SceneSpec, motion_time: float) -> np.ndarray:
     return np.array([cx, cy, s, theta])
 
 
+def _walker(spec: SceneSpec, index: int) -> np.ndarray:
+    """The head state of a people scene's second person, who walks across the whole view from
+    right to left, nearer the camera (a fifth larger), nodding a little as they step."""
+    progress = index / max(spec.num_frames - 1, 1)
+    cx = spec.width * (1.15 - 1.3 * progress)
+    cy = spec.height * (0.42 + 0.01 * np.sin(2 * np.pi * index / 15.0))
+    return np.array([cx, cy, 1.2 * spec.head_width, 0.05 * np.sin(2 * np.pi * index / 30.0)])
+
+
 def _depth_image(spec: SceneSpec, state: np.ndarray | None, rng: np.random.Generator) -> np.ndarray:
     """What an RGB-D camera sees, millimetres: the room from 3.5 m (top) to 2.5 m (bottom: the
     floor comes closer), the person (``state``, None when away) with the head's centre at the
@@ -358,14 +377,16 @@ def _box(points: np.ndarray) -> tuple[float, float, float, float]:
 
 def render_scene(spec: SceneSpec) -> Iterator[SceneFrame]:
     """Render the frames of ``spec`` in order; deterministic for a given spec."""
-    if spec.target not in ('head', 'hand'):
-        raise ValueError(f'scene target must be head or hand, got {spec.target!r}')
+    if spec.target not in ('head', 'hand', 'people'):
+        raise ValueError(f'scene target must be head, hand or people, got {spec.target!r}')
     rng = np.random.default_rng(spec.seed)
     background = _background(spec, rng)
     skin = _skin_tone(rng)
     shirt = _clothes(rng)
-    hand_scene = spec.target == 'hand'
+    hand_scene = spec.target in ('hand', 'people')
     sleeve = _clothes(rng) if hand_scene else shirt
+    # Drawn after the single-person scenes' draws: their frames stay as they were.
+    walker_skin, walker_shirt = (_skin_tone(rng), _clothes(rng)) if spec.target == 'people' else (skin, shirt)
     noise_rng = np.random.default_rng(spec.seed + 1)
     depth_rng = np.random.default_rng(spec.seed + 2)  # its own: the colour frames stay as without depth
     motion_time = 0.0
@@ -387,18 +408,30 @@ def render_scene(spec: SceneSpec) -> Iterator[SceneFrame]:
             if visible:
                 _draw_hand(frame, state, skin, sleeve, gain, skin_mask)
             box = _box(_to_image(_HAND_OUTLINE, state)) if visible else None
+            targets = {'person_1/hand': box}
+            if spec.target == 'people':
+                walker = _walker(spec, index)
+                _draw_person(frame, walker, walker_skin, walker_shirt, gain, skin_mask)
+                in_view = 0.0 <= walker[0] < spec.width
+                targets = {
+                    'person_1/head': _box(_head_polygon(person)),
+                    'person_1/hand': box,
+                    'person_2/head': _box(_head_polygon(walker)) if in_view else None,
+                }
+                state, box = person, targets['person_1/head']
         else:
             state = _trajectory(spec, motion_time)
             if visible:
                 _draw_person(frame, state, skin, shirt, gain, skin_mask)
             box = _box(_head_polygon(state)) if visible else None
+            targets = {'person_1/head': box}
         noisy = frame.astype(np.float32) + noise_rng.normal(0, spec.noise_sigma, size=frame.shape)
         image = np.clip(noisy, 0, 255).astype(np.uint8)
         stamp_ns = _EPOCH_NS + int(round(index * 1e9 / spec.fps))
         depth = None
         if spec.depth:
             depth = _depth_image(spec, state if visible and not hand_scene else None, depth_rng)
-        yield SceneFrame(index, stamp_ns, image, visible, state, box, skin_mask > 0, depth)
+        yield SceneFrame(index, stamp_ns, image, visible, state, box, targets, skin_mask > 0, depth)
 
 
 SCENES: dict[str, SceneSpec] = {
@@ -457,6 +490,19 @@ SCENES: dict[str, SceneSpec] = {
             scale_change=0.1,
             max_rotation=0.3,
             pauses=((60, 85),),
+        ),
+        # Two people: one waves a hand, the other walks across in front of both (frames 0-149).
+        SceneSpec(
+            name='people_crossing',
+            target='people',
+            seed=7,
+            num_frames=150,
+            clutter=40,
+            skin_like_clutter=4,
+            noise_sigma=2.0,
+            amplitude=(0.12, 0.05),
+            scale_change=0.1,
+            max_rotation=0.3,
         ),
     )
 }

@@ -29,6 +29,7 @@ from human_tracker.evaluation.identity import identity_scores, one_track
 from human_tracker.evaluation.metrics import Box, summarise
 from human_tracker.io.sequences import open_sequence
 from human_tracker.offline import TrackOptions, read_ids, read_poses, track_sequence
+from human_tracker.vision.people import kinds_of
 from human_tracker.vision.target import TargetParameters, parameters_for
 from human_tracker.vision.tracker import TrackerParameters
 
@@ -204,6 +205,8 @@ def compare_on_sequence(
         if person:
             variants += [('person', init, None), ('person', None, None)]
         for name, start, parameters in variants:
+            # The target scored: a person's bag is scored on its first track, the head's.
+            kind = target if name == 'person' else kinds_of(target)[0]
             ours, ids = [], []
             for seed in SEEDS:
                 options = TrackOptions(
@@ -217,10 +220,8 @@ def compare_on_sequence(
                 )
                 summary = track_sequence(folder, Path(scratch) / 'ours', options)
                 table = Path(scratch) / 'ours' / 'poses.csv'
-                boxes = read_poses(table, target if name == 'person' else None)
-                ours.append((boxes, float(summary['ms_per_frame'])))
-                by_kind = read_ids(table)
-                ids.append(by_kind[target] if name == 'person' else next(iter(by_kind.values())))
+                ours.append((read_poses(table, kind), float(summary['ms_per_frame'])))
+                ids.append(read_ids(table)[kind])
             cues = 'background + skin' if summary['skin'] else 'background cue'
             rows.append(_row(f'{name} ({cues}{"" if start else ", no box"})', ours, scored, ids))
         for name in MAIN_WHEEL_BASELINES:

@@ -589,11 +589,13 @@ class TrackerNode(ImageStage):
         estimate: TrackEstimate,
         shape: tuple[int, ...],
         width: float,
+        surface_to_centre: float,
         depth: np.ndarray | None,
     ) -> tuple[PoseWithCovariance, tuple[Any, ...], float | None, np.ndarray]:
-        """The metric pose of ``tracker``'s ``estimate`` (a target ``width`` metres across) and its
-        covariance; also the camera model, the distance used (metres: from ``depth`` when it has
-        readings in the target's region, else None: from the scale) and the particles' positions."""
+        """The metric pose of ``tracker``'s ``estimate`` (a target ``width`` metres across,
+        ``surface_to_centre`` metres deep) and its covariance; also the camera model, the distance
+        used (metres: from ``depth`` when it has readings in the target's region, else None: from
+        the scale) and the particles' positions."""
         assert tracker.particles is not None
         k, distortion = self.lens(shape[1], shape[0], self.image_rectified)
         measured = None
@@ -601,7 +603,7 @@ class TrackerNode(ImageStage):
             measured = region_depth(depth, box_from_state(estimate.state, tracker.template), shape[:2])
             if measured is None and tracker is self.tracker:  # counted for the primary target's pose
                 self.frames_without_depth_reading += 1
-        distance, spread = (None, None) if measured is None else (measured[0] + self.surface_to_centre, measured[1])
+        distance, spread = (None, None) if measured is None else (measured[0] + surface_to_centre, measured[1])
         camera = (tracker.template, k, width, distortion)
         position = metric_positions(estimate.state, *camera, depth=distance)
         cloud = metric_positions(tracker.particles, *camera, depth=distance)
@@ -629,7 +631,9 @@ class TrackerNode(ImageStage):
         assert estimate is not None and particles is not None and previous is not None
         pose = PoseWithCovarianceStamped()
         pose.header = header
-        pose.pose, camera, distance, cloud = self._pose(self.tracker, estimate, shape, self.target_width, depth)
+        pose.pose, camera, distance, cloud = self._pose(
+            self.tracker, estimate, shape, self.target_width, self.surface_to_centre, depth
+        )
         self.pose_pub.publish(pose)
         # Distances of the same kind on both frames: measured on both, or both from the scale.
         previous_distance, self.last_distance = self.last_distance, distance
@@ -650,13 +654,16 @@ class TrackerNode(ImageStage):
         for outcome in outcomes:
             if not outcome.result.tracking:
                 continue
-            width = self.target_width if outcome.kind == self.kind else _TARGET_WIDTHS[outcome.kind]
+            primary = outcome.kind == self.kind
+            width = self.target_width if primary else _TARGET_WIDTHS[outcome.kind]
+            offset = self.surface_to_centre if primary else _SURFACE_TO_CENTRE[outcome.kind]
             odometry = Odometry()
             odometry.header = header
             odometry.child_frame_id = f'person_{outcome.person}/{outcome.kind}_{outcome.id}'
             estimate = outcome.result.estimate
             assert estimate is not None
-            odometry.pose = self._pose(self.people.trackers[outcome.kind], estimate, shape, width, depth)[0]
+            tracker = self.people.trackers[outcome.kind]
+            odometry.pose = self._pose(tracker, estimate, shape, width, offset, depth)[0]
             odometry.twist.covariance = (np.eye(6) * _UNKNOWN_VARIANCE).reshape(-1).tolist()
             self.targets_pub.publish(odometry)
 

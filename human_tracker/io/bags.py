@@ -229,8 +229,9 @@ class BagFrame:
         message: The deserialised image message (rosbags types: fields as in ROS).
         ground_truth: ``(x, y, w, h)`` box of the target at this stamp, None when the target
             is not annotated or out of view, or when the bag has no ground truth.
-        ground_truths: With no ``target`` asked for, every ground-truth track's box by name
-            (``head``; ``person_1/head``, ``person_1/hand``, ...); ``ground_truth`` is the first.
+        ground_truths: The box of every ground-truth track read (the ``target`` asked for, else
+            all) by name (``head``; ``person_1/head``, ``person_1/hand``, ...);
+            ``ground_truth`` is the first's.
     """
 
     index: int

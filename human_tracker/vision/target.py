@@ -15,8 +15,8 @@ filter has no target (WAITING, LOST) and the score reaches ``init_confidence``. 
 the filter elsewhere when its *moving* score (points whose edge lies on the motion mask)
 beats the current estimate's by ``switch_margin`` while fitting at least ``lost_confidence``
 of its points: the person came back, or the filter slid onto still clutter that fits the
-template as well as the person does; not while a target started from a box (the box names it)
-is tracked with its colours. The target is lost when, for ``lost_frames`` frames in
+template as well as the person does; not while the edges and colours of a target started from
+a box (the box names it) hold. The target is lost when, for ``lost_frames`` frames in
 a row, fewer than ``lost_confidence`` of the points find an edge, or (with
 ``lost_motion_support`` > 0) fewer than that fraction lie on the motion mask. The second
 test suits the background cue, where a person who stands still is still foreground; with
@@ -153,8 +153,8 @@ class TargetParameters:
             before the region is measured (§2.5); 0 disables it.
         init_confidence: Score a motion hypothesis needs to start the filter, in [0, 1].
         switch_margin: How much better than the current estimate a hypothesis elsewhere must
-            score to restart the filter there (never while a target started from a box is
-            tracked, with the fused likelihood).
+            score to restart the filter there (never while the edges and colours of a target
+            started from a box hold, with the fused likelihood).
         hypothesis_samples: States drawn around X_0 (twice ``initial_spread``) to score it.
         hypothesis_blobs: With ``moments``, how many of the largest regions each give an X_0
             (the best-fitting one wins: the hand among the skin-coloured regions).
@@ -887,11 +887,12 @@ class TargetTracker:
             return False  # it would be a weak frame at once
         if self.status != TRACKING or estimate is None:
             return found.confidence >= p.init_confidence
-        if self.started_from_box and self.appearance is not None:
-            # A start box names the target: a region moving more elsewhere (someone walking past,
-            # a waving hand) does not take over a still person while they are tracked; once lost,
-            # the target comes back through a hypothesis or a face. people_crossing, the still
-            # head's box: 0.02 -> 1.00; no real sequence changed (none switched from a box).
+        holds = estimate.confidence >= p.lost_confidence and estimate.appearance_distance <= p.lost_appearance_distance
+        if self.started_from_box and self.appearance is not None and holds:
+            # A start box names the target: while its edges and colours hold, a region moving
+            # more elsewhere (someone walking past, a waving hand) does not take over a still
+            # person. people_crossing, the still head's box: 0.02 -> 1.00; no real sequence
+            # changed (none switched from a box while its target held).
             return False
         far = np.hypot(*(found.state[:2] - estimate.state[:2])) > 0.5 * estimate.state[2]
         fits = found.confidence >= p.lost_confidence

@@ -491,7 +491,8 @@ SCENES: dict[str, SceneSpec] = {
             max_rotation=0.3,
             pauses=((60, 85),),
         ),
-        # Two people: one waves a hand, the other walks across in front of both (frames 0-149).
+        # Two people: one stands and waves a hand, the other walks across in front of both (in
+        # view on frames 17-140).
         SceneSpec(
             name='people_crossing',
             target='people',

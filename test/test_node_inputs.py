@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 
 import numpy as np
 import rclpy
@@ -97,32 +99,49 @@ def test_compressed_jpeg_and_png_input() -> None:
     assert stage.counters.rejected == 0
 
 
-def test_tracker_debug_image_and_pose_carry_the_input_header() -> None:
-    frames = list(read_frames('bags/head_basic'))[:3]
+@contextmanager
+def _tracker_and_camera(overrides: list[Parameter]) -> Iterator[tuple[TrackerNode, Node, SingleThreadedExecutor]]:
+    """rclpy up, a tracker node with ``overrides`` and a ``camera`` node spun by one executor;
+    everything torn down after."""
     rclpy.init()
-    box = [float(v) for v in frames[0].ground_truth]
-    tracker = TrackerNode(
-        parameter_overrides=[
-            Parameter('init_box', value=box),
-            Parameter('qos_reliability', value='reliable'),
-            Parameter('qos_depth', value=10),
-        ]
-    )
+    tracker = TrackerNode(parameter_overrides=overrides)
     source = Node('camera')
-    publisher = source.create_publisher(Image, 'image', RELIABLE)
-    debug: list[Image] = []
-    poses: list = []
-    source.create_subscription(Image, 'debug_image', debug.append, RELIABLE)
-    source.create_subscription(PoseWithCovarianceStamped, 'pose', poses.append, RELIABLE)
     executor = SingleThreadedExecutor()
     executor.add_node(tracker)
     executor.add_node(source)
     try:
-        deadline = time.monotonic() + 20.0
-        while (
-            publisher.get_subscription_count() < 1 or tracker.debug_pub.get_subscription_count() < 1
-        ) and time.monotonic() < deadline:
-            executor.spin_once(timeout_sec=0.05)
+        yield tracker, source, executor
+    finally:
+        executor.shutdown()
+        tracker.destroy_node()
+        source.destroy_node()
+        rclpy.try_shutdown()
+
+
+def _spin_until(executor: SingleThreadedExecutor, done: Callable[[], bool], timeout: float = 20.0) -> None:
+    deadline = time.monotonic() + timeout
+    while not done() and time.monotonic() < deadline:
+        executor.spin_once(timeout_sec=0.05)
+
+
+def test_tracker_debug_image_and_pose_carry_the_input_header() -> None:
+    frames = list(read_frames('bags/head_basic'))[:3]
+    box = [float(v) for v in frames[0].ground_truth]
+    overrides = [
+        Parameter('init_box', value=box),
+        Parameter('qos_reliability', value='reliable'),
+        Parameter('qos_depth', value=10),
+    ]
+    with _tracker_and_camera(overrides) as (tracker, source, executor):
+        publisher = source.create_publisher(Image, 'image', RELIABLE)
+        debug: list[Image] = []
+        poses: list = []
+        source.create_subscription(Image, 'debug_image', debug.append, RELIABLE)
+        source.create_subscription(PoseWithCovarianceStamped, 'pose', poses.append, RELIABLE)
+        _spin_until(
+            executor,
+            lambda: publisher.get_subscription_count() >= 1 and tracker.debug_pub.get_subscription_count() >= 1,
+        )
         sent = []
         for frame in frames:
             msg = array_to_image(message_to_bgr8(frame.message), 'bgr8')
@@ -130,14 +149,7 @@ def test_tracker_debug_image_and_pose_carry_the_input_header() -> None:
             msg.header.frame_id = 'camera_optical_frame'
             publisher.publish(msg)
             sent.append(msg.header)
-        deadline = time.monotonic() + 20.0
-        while min(len(debug), len(poses)) < len(frames) and time.monotonic() < deadline:
-            executor.spin_once(timeout_sec=0.05)
-    finally:
-        executor.shutdown()
-        tracker.destroy_node()
-        source.destroy_node()
-        rclpy.try_shutdown()
+        _spin_until(executor, lambda: min(len(debug), len(poses)) >= len(frames))
     assert [m.header for m in debug] == sent
     assert [p.header for p in poses] == sent
     assert all(m.encoding == 'bgr8' and (m.width, m.height) == (640, 480) for m in debug)
@@ -146,30 +158,22 @@ def test_tracker_debug_image_and_pose_carry_the_input_header() -> None:
 def test_a_person_debug_image_draws_each_target_in_its_id_colour() -> None:
     """target person: the hand, once it has an id, is drawn in that id's colour on debug_image."""
     frames = list(read_frames('bags/hand_wave'))[:40]
-    rclpy.init()
-    tracker = TrackerNode(
-        parameter_overrides=[
-            Parameter('target', value='person'),
-            Parameter('skin_input', value=True),
-            Parameter('qos_reliability', value='reliable'),
-            Parameter('qos_depth', value=50),
-        ]
-    )
-    source = Node('camera')
-    publisher = source.create_publisher(Image, 'image', RELIABLE)
-    skin_publisher = source.create_publisher(Image, 'skin', RELIABLE)
-    segmenter = SkinSegmenter(default_skin_model())
-    debug: list[Image] = []
-    source.create_subscription(Image, 'debug_image', debug.append, RELIABLE)
-    executor = SingleThreadedExecutor()
-    executor.add_node(tracker)
-    executor.add_node(source)
-    try:
-        deadline = time.monotonic() + 20.0
-        while (
-            skin_publisher.get_subscription_count() < 1 or tracker.debug_pub.get_subscription_count() < 1
-        ) and time.monotonic() < deadline:
-            executor.spin_once(timeout_sec=0.05)
+    overrides = [
+        Parameter('target', value='person'),
+        Parameter('skin_input', value=True),
+        Parameter('qos_reliability', value='reliable'),
+        Parameter('qos_depth', value=50),
+    ]
+    with _tracker_and_camera(overrides) as (tracker, source, executor):
+        publisher = source.create_publisher(Image, 'image', RELIABLE)
+        skin_publisher = source.create_publisher(Image, 'skin', RELIABLE)
+        segmenter = SkinSegmenter(default_skin_model())
+        debug: list[Image] = []
+        source.create_subscription(Image, 'debug_image', debug.append, RELIABLE)
+        _spin_until(
+            executor,
+            lambda: skin_publisher.get_subscription_count() >= 1 and tracker.debug_pub.get_subscription_count() >= 1,
+        )
         for frame in frames:
             image = message_to_bgr8(frame.message)
             for topic, msg in (
@@ -178,15 +182,8 @@ def test_a_person_debug_image_draws_each_target_in_its_id_colour() -> None:
             ):
                 msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(frame.stamp_ns, 10**9)
                 topic.publish(msg)
-        deadline = time.monotonic() + 30.0
-        while len(debug) < len(frames) and time.monotonic() < deadline:
-            executor.spin_once(timeout_sec=0.05)
+        _spin_until(executor, lambda: len(debug) >= len(frames), timeout=30.0)
         hand = next(o for o in tracker.last_outcomes if o.kind == 'hand')
-    finally:
-        executor.shutdown()
-        tracker.destroy_node()
-        source.destroy_node()
-        rclpy.try_shutdown()
     assert len(debug) == len(frames) and hand.id > 0 and hand.result.tracking
     shown = message_to_bgr8(debug[-1])
     x, y, w, h = (int(round(v)) for v in hand.result.estimate.box)

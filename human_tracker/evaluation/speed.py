@@ -91,27 +91,28 @@ def stage_timings(
         results[name] = _ms_per_frame(_pipeline(messages, boxes[0], filter_parameters, working_width), count, np.mean)
     hand = TargetTracker(open_hand(), filter_parameters, parameters_for('hand'))
     hand.initialise_from_box(boxes[0])
-    hand_cue, hand_width = BackgroundModel(), hand.parameters.working_width
-
-    def hand_pipeline(i: int) -> object:
-        image = message_to_bgr8(messages[i])
-        working = to_working(image, hand_width)
-        skin = segmenter.segment(working, working_scale(image.shape[1], hand_width))
-        return hand.process(image, hand_cue.apply(to_mono8(working)), skin)
-
-    results['hand_pipeline'] = _ms_per_frame(hand_pipeline, count, np.mean)
+    hand_width = hand.parameters.working_width
     person = PersonTracker(('head', 'hand'), filter_parameters)
     person.initialise_from_box(boxes[0], 'head')
-    person_cue = BackgroundModel()
-
-    def person_pipeline(i: int) -> object:
-        image = message_to_bgr8(messages[i])
-        working = to_working(image, hand_width)
-        skin = segmenter.segment(working, working_scale(image.shape[1], hand_width))
-        return person.process(image, person_cue.apply(to_mono8(working)), skin)
-
-    results['person_pipeline'] = _ms_per_frame(person_pipeline, count, np.mean)
+    for name, process in (('hand_pipeline', hand.process), ('person_pipeline', person.process)):
+        results[name] = _ms_per_frame(_skin_pipeline(messages, process, segmenter, hand_width), count, np.mean)
     return {k: round(v, 3) for k, v in results.items()}
+
+
+def _skin_pipeline(
+    messages: list[_RawImage], process: Callable[..., object], segmenter: SkinSegmenter, working_width: int
+) -> Callable[[int], object]:
+    """One frame of a pipeline with skin (a hand's, a person's): conversion, the background cue
+    and the skin labels at ``working_width``, then ``process(image, motion, skin)``."""
+    cue = BackgroundModel()
+
+    def run(i: int) -> object:
+        image = message_to_bgr8(messages[i])
+        working = to_working(image, working_width)
+        skin = segmenter.segment(working, working_scale(image.shape[1], working_width))
+        return process(image, cue.apply(to_mono8(working)), skin)
+
+    return run
 
 
 def _pipeline(

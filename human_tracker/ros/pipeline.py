@@ -70,7 +70,7 @@ def build_pipeline() -> list[Node]:
     use_skin = declare(
         selector,
         'skin_cue',
-        'hand' in tracker.people.kinds,
+        tracker.people.uses_skin,
         'Segment skin in process (§3.2); default: on when the tracker follows a hand (or a person).',
         read_only=True,
     )

@@ -535,12 +535,13 @@ class TrackerNode(ImageStage):
                 throttle_duration_sec=5.0,
             )
         self.counters.processed += 1
+        pose = None
         if result.tracking:
-            self._publish(result, header, size, interval, depth)
+            pose = self._publish(result, header, size, interval, depth)
         else:
             self.last_distance = None
         if self.targets_pub is not None:
-            self._publish_targets(outcomes, header, size, depth)
+            self._publish_targets(outcomes, header, size, depth, pose)
         if self.markers_pub.get_subscription_count() > 0:
             self._publish_markers(result, header, size)
         if self.debug_pub.get_subscription_count() > 0:
@@ -623,9 +624,10 @@ class TrackerNode(ImageStage):
 
     def _publish(
         self, result: TargetResult, header: Any, shape: tuple[int, ...], interval: float, depth: np.ndarray | None
-    ) -> None:
+    ) -> PoseWithCovariance:
         """The pose and contour; the velocity too when the frame before is ``interval`` s back.
-        With a ``depth`` image (metres) the distance is its readings' in the target's region."""
+        With a ``depth`` image (metres) the distance is its readings' in the target's region.
+        Returns the pose published."""
         estimate = result.estimate
         particles, previous = self.tracker.particles, self.tracker.previous_particles
         assert estimate is not None and particles is not None and previous is not None
@@ -646,24 +648,34 @@ class TrackerNode(ImageStage):
         contour.header = header
         contour.polygon.points = [Point32(x=float(x), y=float(y), z=0.0) for x, y in estimate.contour]
         self.contour_pub.publish(contour)
+        return pose.pose
 
     def _publish_targets(
-        self, outcomes: list[TrackedTarget], header: Any, shape: tuple[int, ...], depth: np.ndarray | None
+        self,
+        outcomes: list[TrackedTarget],
+        header: Any,
+        shape: tuple[int, ...],
+        depth: np.ndarray | None,
+        primary: PoseWithCovariance | None,
     ) -> None:
-        """One Odometry on ``targets`` per target TRACKING on this frame, named by its person, kind and id."""
+        """One Odometry on ``targets`` per target TRACKING on this frame, named by its person, kind
+        and id; the primary target's pose is the one ``pose`` got (``primary``)."""
         for outcome in outcomes:
             if not outcome.result.tracking:
                 continue
-            primary = outcome.kind == self.kind
-            width = self.target_width if primary else _TARGET_WIDTHS[outcome.kind]
-            offset = self.surface_to_centre if primary else _SURFACE_TO_CENTRE[outcome.kind]
             odometry = Odometry()
             odometry.header = header
             odometry.child_frame_id = f'person_{outcome.person}/{outcome.kind}_{outcome.id}'
-            estimate = outcome.result.estimate
-            assert estimate is not None
-            tracker = self.people.trackers[outcome.kind]
-            odometry.pose = self._pose(tracker, estimate, shape, width, offset, depth)[0]
+            if outcome.kind == self.kind:
+                assert primary is not None  # published on pose: the primary target is TRACKING
+                odometry.pose = primary
+            else:
+                estimate = outcome.result.estimate
+                assert estimate is not None
+                tracker, kind = self.people.trackers[outcome.kind], outcome.kind
+                odometry.pose = self._pose(
+                    tracker, estimate, shape, _TARGET_WIDTHS[kind], _SURFACE_TO_CENTRE[kind], depth
+                )[0]
             odometry.twist.covariance = (np.eye(6) * _UNKNOWN_VARIANCE).reshape(-1).tolist()
             self.targets_pub.publish(odometry)
 

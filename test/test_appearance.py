@@ -118,6 +118,19 @@ def test_prior_density_by_hand() -> None:
     assert moving[0] == pytest.approx(-np.log(1.0) - 2.0 * np.log(2.0 * np.pi))
 
 
+def test_prior_density_counts_copies() -> None:
+    # Resampled particles: two copies of one and a third elsewhere, in any order. The prior is
+    # the equal mixture over all three: 2/3 of the first Gaussian at its mean, the far one
+    # adding nothing.
+    at_rest = np.array([0.0, 0.0, 10.0, 0.0])
+    far = np.array([500.0, 0.0, 10.0, 0.0])
+    noise = np.array([1.0, 1.0, 0.1, 1.0])
+    one_gaussian = -2.0 * np.log(2.0 * np.pi)  # at its mean, stds 1 · 1 · 1 · 1
+    for current in (np.array([at_rest, at_rest, far]), np.array([at_rest, far, at_rest])):
+        density = log_prior_density(at_rest[None], current, current, 0.6, noise)[0]
+        assert density == pytest.approx(np.log(2.0 / 3.0) + one_gaussian)
+
+
 def test_proposal_density_is_an_equal_mixture() -> None:
     detections = np.array([[0.0, 0.0, 10.0, 0.0], [100.0, 0.0, 10.0, 0.0]])
     spread = np.array([1.0, 1.0, 0.1, 1.0])

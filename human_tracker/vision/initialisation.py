@@ -52,9 +52,14 @@ def moments_state(blob: np.ndarray, template: ContourTemplate) -> np.ndarray:
     and its width ``4 sqrt(λ_minor)`` (the full width of a uniform ellipse) over the region's
     width in template units gives s.
     """
-    ys, xs = np.nonzero(blob)
-    cx, cy = xs.mean(), ys.mean()
-    covariance = np.cov(np.stack([xs, ys]).astype(np.float64))
+    mask = blob.view(np.uint8)
+    # On the blob's bounding box: a tenth of the whole frame's time.
+    left, top, width, height = cv2.boundingRect(mask)
+    moments = cv2.moments(mask[top : top + height, left : left + width], binaryImage=True)
+    area = moments['m00']
+    cx, cy = left + moments['m10'] / area, top + moments['m01'] / area
+    # The sample covariance of the pixel coordinates (normalised by N - 1, as numpy's cov).
+    covariance = np.array([[moments['mu20'], moments['mu11']], [moments['mu11'], moments['mu02']]]) / max(area - 1, 1)
     eigenvalues, eigenvectors = np.linalg.eigh(covariance)
     major = eigenvectors[:, 1]
     if major[1] < 0:  # orient the major axis downwards so θ is near 0 for an upright blob

@@ -197,6 +197,5 @@ def test_a_person_started_from_a_box_is_kept_while_another_walks_past(tmp_path) 
     box = next(read_frames(BAGS / 'people_crossing')).ground_truths['person_1/head']
     options = TrackOptions(target='head', init=box, video=False, progress=False)
     summary = track_sequence(BAGS / 'people_crossing', tmp_path, options)
-    print(summary['tracks'], summary['targets'] if 'targets' in summary else '')
     assert summary['tracks']['person_1/head']['precision_20px'] >= 0.95
     assert summary['all_tracks']['id_switches'] == 0

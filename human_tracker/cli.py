@@ -57,6 +57,8 @@ def _track(options: argparse.Namespace) -> int:
         target=options.target,
         init=options.init,
         init_kind=options.init_kind,
+        hands=options.hands,
+        max_people=options.max_people,
         cue=options.cue,
         skin=options.skin,
         template_file=options.template or '',
@@ -239,6 +241,16 @@ def main(argv: list[str] | None = None) -> int:
         choices=('head', 'hand'),
         help='with --target person: which target --init is the box of (default: what the ground truth outlines, '
         'or head)',
+    )
+    track.add_argument(
+        '--hands', type=int, choices=(0, 1, 2), default=1, help="with --target person: a person's hands (default 1)"
+    )
+    track.add_argument(
+        '--max-people',
+        type=int,
+        default=1,
+        metavar='N',
+        help='with --target person: the most people followed at once, each with its ids (default 1)',
     )
     track.add_argument('--out', type=Path, help='output folder (default out/track/<input name>)')
     track.add_argument(

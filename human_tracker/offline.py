@@ -57,6 +57,7 @@ POSE_COLUMNS = (
     'id',
     'kind',
     'person',
+    'target',
 )
 
 
@@ -65,9 +66,11 @@ class TrackOptions:
     """What to track and how.
 
     Attributes:
-        target: ``head``, ``hand`` or ``person`` (a head and a hand, each with its id,
+        target: ``head``, ``hand`` or ``person`` (a head and hands, each with its id,
             :mod:`~human_tracker.vision.people`); None: what the bag's ground truth
             outlines, else ``head``.
+        hands: A person's hands followed (0 to 2).
+        max_people: The most people followed at once (a person).
         init: First-frame box (x, y, w, h) of the target's reference region, or None to start
             from motion.
         init_kind: For a person, which target ``init`` is the box of (``head`` or ``hand``);
@@ -87,6 +90,8 @@ class TrackOptions:
     target: str | None = None
     init: Box | None = None
     init_kind: str | None = None
+    hands: int = 1
+    max_people: int = 1
     cue: str = 'background'
     skin: bool | None = None
     template_file: str = ''
@@ -116,7 +121,7 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
     out.mkdir(parents=True, exist_ok=True)
     sequence = open_sequence(source)
     target = options.target or sequence.target or 'head'
-    kinds = kinds_of(target)
+    kinds = kinds_of(target, options.hands)
     if len(kinds) > 1 and (options.template_file or options.target_parameters is not None):
         raise ValueError('a template file and target parameters are for one target, not a person')
     parameters = {kinds[0]: options.target_parameters} if options.target_parameters is not None else {}
@@ -129,8 +134,10 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
         options.filter_parameters,
         parameters,
         {kinds[0]: make_template(kinds[0], template_file=options.template_file)},
+        max_people=options.max_people if target == 'person' else 1,
     )
-    width = people.trackers[kinds[0]].parameters.working_width
+    names = [slot.name for slot in people.slots]
+    width = people.trackers[0].parameters.working_width
     init_kind = options.init_kind or (sequence.target if sequence.target in kinds else kinds[0])
     if init_kind not in kinds:
         raise ValueError(f'init_kind must be one of {", ".join(kinds)}, got {init_kind!r}')
@@ -139,8 +146,9 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
     segmenter = SkinSegmenter(default_skin_model()) if use_skin else None
     grey_frames = 0
     motion_set_aside = 0
-    predicted: dict[str, list[Box | None]] = {kind: [] for kind in kinds}
-    ids: dict[str, list[int]] = {kind: [] for kind in kinds}
+    # By target slot (``head``, ``hand``, ``person_2/head``, ...): None or 0 where it did not run.
+    predicted: dict[str, list[Box | None]] = {name: [] for name in names}
+    ids: dict[str, list[int]] = {name: [] for name in names}
     truth: list[Box | None] = []
     tracks: dict[str, list[Box | None]] = {}  # several ground-truth tracks, by name
     writer = None
@@ -156,9 +164,9 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
             if frame.image is None:
                 # Counted, written as a row, and scored as a miss where annotated: never lost.
                 rejected[frame.rejected] = rejected.get(frame.rejected, 0) + 1
-                for kind in kinds:
-                    predicted[kind].append(None)
-                    ids[kind].append(0)
+                for name in names:
+                    predicted[name].append(None)
+                    ids[name].append(0)
                 table.writerow([frame.index, frame.stamp_ns, *[''] * 5, 'REJECTED', *[''] * 10])
                 continue
             start = time.perf_counter()
@@ -183,10 +191,13 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
             outcomes = people.process(frame.image if frame.image.ndim == 3 else gray, motion, skin)
             elapsed += time.perf_counter() - start
             motion_set_aside += outcomes[0].result.motion_set_aside
+            ran = {outcome.name: outcome for outcome in outcomes}
+            for name in names:
+                outcome = ran.get(name)
+                followed = outcome is not None and outcome.result.tracking
+                predicted[name].append(outcome.result.estimate.box if followed else None)
+                ids[name].append(outcome.id if outcome is not None else 0)
             for outcome in outcomes:
-                result = outcome.result
-                predicted[outcome.kind].append(result.estimate.box if result.tracking else None)
-                ids[outcome.kind].append(outcome.id)
                 table.writerow(_pose_row(frame.index, frame.stamp_ns, outcome))
             if options.video and frame.index % options.video_every == 0:
                 image = _annotated_frame(frame.image, outcomes, frame.ground_truth, f'{sequence.name} {frame.index}')
@@ -202,10 +213,10 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
     if writer is not None:
         writer.release()
     processed = len(truth) - sum(rejected.values())
-    # Scored: the one target, or the person's target that matches the ground truth best.
-    scored = kinds[0]
-    if len(kinds) > 1 and any(t is not None for t in truth):
-        scored = max(kinds, key=lambda kind: summarise(predicted[kind], truth)['precision_20px'])
+    # Scored: the one target, or the target that matches the ground truth best.
+    scored = names[0]
+    if len(names) > 1 and any(t is not None for t in truth):
+        scored = max(names, key=lambda name: summarise(predicted[name], truth)['precision_20px'])
     summary: dict[str, object] = {
         'source': str(source),
         'target': target,
@@ -223,8 +234,8 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
         'fps': round(processed / elapsed, 2) if elapsed > 0 else None,
         'ms_per_frame': round(1000 * elapsed / max(processed, 1), 3),
     }
-    if len(kinds) > 1:
-        summary['targets'] = {kind: _id_summary(ids[kind]) for kind in kinds}
+    if len(names) > 1:
+        summary['targets'] = {name: _id_summary(ids[name]) for name in names}
         summary['scored_kind'] = scored
     if any(t is not None for t in truth):
         summary.update(summarise(predicted[scored], truth))
@@ -240,24 +251,30 @@ def _several_tracks(
     tracks: dict[str, list[Box | None]], predicted: dict[str, list[Box | None]], ids: dict[str, list[int]]
 ) -> dict[str, object]:
     """Scores of a sequence with several ground-truth tracks (``person_1/head``, ...): each
-    track's precision against the target of its kind (the last part of its name), and MOTA,
-    IDF1 and identity switches of every target against every track."""
+    track's precision against the target of its kind (the last part of its name) that matches
+    it best, and MOTA, IDF1 and identity switches of every target against every track."""
     scores: dict[str, object] = {}
     for name, boxes in tracks.items():
         kind = name.rsplit('/', 1)[-1]
-        if kind in predicted:
-            scores[name] = {'precision_20px': summarise(predicted[kind], boxes)['precision_20px']}
+        precisions = [summarise(p, boxes)['precision_20px'] for slot, p in predicted.items() if _kind(slot) == kind]
+        if precisions:
+            scores[name] = {'precision_20px': max(precisions)}
     reported = [
-        {ids[kind][index]: box for kind, boxes in predicted.items() if (box := boxes[index]) is not None}
+        {ids[name][index]: box for name, boxes in predicted.items() if (box := boxes[index]) is not None}
         for index in range(len(next(iter(predicted.values()))))
     ]
     return {'tracks': scores, 'all_tracks': identity_scores(tracks, reported)}
 
 
+def _kind(slot: str) -> str:
+    """``head`` or ``hand`` of a target slot's name (``person_2/hand_2``: ``hand``)."""
+    return slot.rsplit('/', 1)[-1].split('_')[0]
+
+
 def _pose_row(index: int, stamp_ns: int, outcome: TrackedTarget) -> list[object]:
     """One target's row of ``poses.csv`` (:data:`POSE_COLUMNS`)."""
     result, estimate = outcome.result, outcome.result.estimate
-    who = [outcome.id or '', outcome.kind, outcome.person]
+    who = [outcome.id or '', outcome.kind, outcome.person, outcome.name]
     if estimate is None:
         return [index, stamp_ns, *[''] * 5, result.status, *[''] * 7, *who]
     x, y, s, theta = (round(float(v), 4) for v in estimate.state)
@@ -323,8 +340,9 @@ def read_poses(path: str | Path, kind: str | None = None) -> list[Box | None]:
 
 
 def read_tracks(path: str | Path) -> dict[str, list[Box | None]]:
-    """Boxes from a ``poses.csv`` written by :func:`track_sequence`, by kind of target (one
-    list for one target, a head's and a hand's for a person), None where not tracked.
+    """Boxes from a ``poses.csv`` written by :func:`track_sequence`, by target (one list for
+    one target; for a person, by its name: ``head``, ``hand``, ``hand_2``, ``person_2/head``,
+    ...), None where not tracked.
 
     Raises:
         ValueError: The file is not such a table (its header lacks the box columns, or a box
@@ -345,10 +363,11 @@ def read_ids(path: str | Path) -> dict[str, list[int]]:
 
 
 def _read_table(path: str | Path) -> tuple[dict[str, list[Box | None]], dict[str, list[int]]]:
-    """Boxes and ids of a ``poses.csv``, by kind (see :func:`read_tracks`)."""
+    """Boxes and ids of a ``poses.csv``, by target (its ``target`` column, else its kind; see
+    :func:`read_tracks`), one per frame of the table: None and 0 on a frame without its row."""
     columns = ('box_x', 'box_y', 'box_w', 'box_h')
-    boxes: dict[str, list[Box | None]] = {}
-    ids: dict[str, list[int]] = {}
+    frames: dict[str, None] = {}
+    rows: dict[str, dict[str, tuple[Box | None, int]]] = {}
     try:
         with Path(path).open(newline='') as handle:
             reader = csv.DictReader(handle)
@@ -358,9 +377,14 @@ def _read_table(path: str | Path) -> tuple[dict[str, list[Box | None]], dict[str
             for row in reader:
                 values = [row[k] for k in columns]
                 box = None if '' in values or None in values else tuple(float(v) for v in values)
-                kind = row.get('kind') or ''
-                boxes.setdefault(kind, []).append(box)
-                ids.setdefault(kind, []).append(int(row.get('id') or 0))
+                frame = row.get('frame') or str(len(frames))
+                frames[frame] = None
+                target = row.get('target') or row.get('kind') or ''
+                rows.setdefault(target, {})[frame] = (box, int(row.get('id') or 0))
     except (UnicodeDecodeError, csv.Error) as err:
         raise ValueError(f'{path} is not a poses.csv written by `track`: {err}') from err
-    return boxes or {'': []}, ids or {'': []}
+    if not rows:
+        return {'': []}, {'': []}
+    boxes = {target: [by_frame.get(f, (None, 0))[0] for f in frames] for target, by_frame in rows.items()}
+    ids = {target: [by_frame.get(f, (None, 0))[1] for f in frames] for target, by_frame in rows.items()}
+    return boxes, ids

@@ -15,8 +15,9 @@ A box on ``init_roi`` (sensor_msgs/RegionOfInterest, image pixels) starts the fi
 the next frame; the service ``~/reset`` (std_srvs/Trigger) forgets the target: WAITING for
 motion or a box.
 
-With ``target: person`` it follows a head and a hand (:mod:`~human_tracker.vision.people`):
-the topics above are the head's (the primary target, as for ``target: head``), and
+With ``target: person`` it follows a head and ``hands`` hands of up to ``max_people`` people
+(:mod:`~human_tracker.vision.people`): the topics above are the first person's head's (the
+primary target, as for ``target: head``), and
 ``targets`` (nav_msgs/Odometry, one message per tracked target per frame) gives every target:
 ``child_frame_id`` ``person_<person>/<kind>_<id>``, the pose and its covariance in the image's
 optical frame (``header``); the twist is not estimated per target (unknown covariance).
@@ -193,11 +194,23 @@ class TrackerNode(ImageStage):
             self,
             'target',
             'head',
-            'What to track: head (head-and-shoulders), hand (open hand) or person (a head and a hand, each with its id '
+            'What to track: head (head-and-shoulders), hand (open hand) or person (a head and hands, each with its id '
             'on targets).',
             read_only=True,
         )
-        kinds = kinds_of(target)
+        hands = declare(
+            self, 'hands', 1, "With target person: a person's hands followed.", low=0, high=2, read_only=True
+        )
+        max_people = declare(
+            self,
+            'max_people',
+            1,
+            'With target person: the most people followed at once.',
+            low=1,
+            high=10,
+            read_only=True,
+        )
+        kinds = kinds_of(target, hands)
         template_file = declare(
             self, 'template_file', '', 'JSON template replacing the built-in one (empty: built-in).', read_only=True
         )
@@ -210,8 +223,10 @@ class TrackerNode(ImageStage):
         filter_parameters = self.bind_parameters(TrackerParameters(), FILTER_PARAMETERS, self._apply_filter)
         target_parameters = self.bind_parameters(parameters_for(self.kind), TARGET_PARAMETERS, self._apply_target)
         templates = {kind: make_template(kind, num_points) for kind in kinds} | {self.kind: self.template}
-        self.people = PersonTracker(kinds, filter_parameters, {self.kind: target_parameters}, templates)
-        self.tracker = self.people.trackers[self.kind]
+        self.people = PersonTracker(
+            kinds, filter_parameters, {self.kind: target_parameters}, templates, max_people if len(kinds) > 1 else 1
+        )
+        self.tracker = self.people.first(self.kind)
         if self.tracker.proposals_problem is not None:
             self.get_logger().warn(self.tracker.proposals_problem)
         box = [
@@ -385,7 +400,7 @@ class TrackerNode(ImageStage):
         filter_parameters = TrackerParameters(num_particles=2, min_scale=1.0)
         rng = np.random.default_rng(0)
         blank = np.zeros((32, 32), dtype=np.uint8)
-        for tracker in self.people.trackers.values():
+        for tracker in self.people.trackers:
             probe = TargetTracker(tracker.template, filter_parameters, tracker.parameters)
             probe.initialise_from_box((8.0, 8.0, 16.0, 16.0))  # a box: the appearance kernels run too
             probe.process(rng.integers(0, 256, (32, 32, 3), dtype=np.uint8), blank, blank)
@@ -398,7 +413,7 @@ class TrackerNode(ImageStage):
         super().on_image(msg)
 
     def _apply_filter(self, parameters: TrackerParameters) -> None:
-        for tracker in self.people.trackers.values():
+        for tracker in self.people.trackers:
             tracker.set_filter_parameters(parameters)
 
     def _apply_target(self, parameters: TargetParameters) -> None:
@@ -493,7 +508,7 @@ class TrackerNode(ImageStage):
         stamp = stamp_ns(header)
         if self.last_tracked_ns >= 0 and stamp - self.last_tracked_ns > self.max_gap * 1e9:
             # After a gap the dynamics predict nothing: let motion restart the filter.
-            for tracker in self.people.trackers.values():
+            for tracker in self.people.trackers:
                 tracker.mark_lost()
             self.get_logger().warn(
                 f'{(stamp - self.last_tracked_ns) / 1e9:.2f} s since the last frame: target marked lost',
@@ -666,13 +681,13 @@ class TrackerNode(ImageStage):
             odometry = Odometry()
             odometry.header = header
             odometry.child_frame_id = f'person_{outcome.person}/{outcome.kind}_{outcome.id}'
-            if outcome.kind == self.kind:
+            if outcome is outcomes[0]:
                 assert primary is not None  # published on pose: the primary target is TRACKING
                 odometry.pose = primary
             else:
                 estimate = outcome.result.estimate
                 assert estimate is not None
-                tracker, kind = self.people.trackers[outcome.kind], outcome.kind
+                tracker, kind = self.people.slot(outcome.name).tracker, outcome.kind
                 odometry.pose = self._pose(
                     tracker, estimate, shape, _TARGET_WIDTHS[kind], _SURFACE_TO_CENTRE[kind], depth
                 )[0]

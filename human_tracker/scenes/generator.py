@@ -78,6 +78,8 @@ class SceneSpec:
         pauses: Frame ranges ``[start, end)`` in which the person stands still.
         absent: Frame ranges ``[start, end)`` in which the person is out of view.
         depth: Also render a depth image per frame (head scenes).
+        arrival: Frames over which the standing person of a hand or people scene steps in from
+            the left to their place (0: there from the first frame).
     """
 
     name: str
@@ -100,6 +102,7 @@ class SceneSpec:
     pauses: tuple[tuple[int, int], ...] = ()
     absent: tuple[tuple[int, int], ...] = ()
     depth: bool = False
+    arrival: int = 0
 
 
 @dataclass
@@ -400,8 +403,10 @@ def render_scene(spec: SceneSpec) -> Iterator[SceneFrame]:
         skin_mask = np.zeros(frame.shape[:2], dtype=np.uint8)
         if hand_scene:
             # The person stands to the side, swaying a little, and waves in front of the room.
+            # Stepping in over `arrival` frames from 0.14 of the width to the left of their place.
+            step = 0.14 * max(1.0 - index / spec.arrival, 0.0) if spec.arrival else 0.0
             person = np.array(
-                [spec.width * (0.22 + 0.01 * np.sin(motion_time)), spec.height * 0.3, spec.head_width, 0.0]
+                [spec.width * (0.22 - step + 0.01 * np.sin(motion_time)), spec.height * 0.3, spec.head_width, 0.0]
             )
             _draw_person(frame, person, skin, shirt, gain, skin_mask)
             state = _hand_trajectory(spec, motion_time)
@@ -491,8 +496,8 @@ SCENES: dict[str, SceneSpec] = {
             max_rotation=0.3,
             pauses=((60, 85),),
         ),
-        # Two people: one stands and waves a hand, the other walks across in front of both (in
-        # view on frames 17-140).
+        # Two people: one steps in (frames 0-20) and waves a hand, the other walks across in front
+        # of both (in view on frames 17-140).
         SceneSpec(
             name='people_crossing',
             target='people',
@@ -504,6 +509,7 @@ SCENES: dict[str, SceneSpec] = {
             amplitude=(0.12, 0.05),
             scale_change=0.1,
             max_rotation=0.3,
+            arrival=20,
         ),
     )
 }

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ['BoxRelation']
+__all__ = ['Box', 'BoxRelation']
 
 Box = tuple[float, float, float, float]
 

@@ -1,13 +1,26 @@
-"""Following a person's head and hand together, each target under a stable id.
+"""Following people's heads and hands together, each target under a stable id.
 
 The paper's introduction asks for "the determination of the person's pose as well as the
-location of the hand(s)". A person here is a head (head-and-shoulders contour) and a hand
-(open-hand contour), each its own :class:`~human_tracker.vision.target.TargetTracker` over the
-same frames and cues. The two share what they know of the face: the head's tracker finds the
-face (its proposals), and the hand's tracker, which must keep off the face (a face is skin of
-about a hand's size), is handed where the head's contour puts the face while a face has
-just been found on the head, instead of running its own detector (which looks when the head
-has no fresh face: :meth:`PersonTracker._face_of`).
+location of the hand(s)". A person here is a head (head-and-shoulders contour) and up to two
+hands (open-hand contours), each its own :class:`~human_tracker.vision.target.TargetTracker`
+over the same frames and cues; up to ``max_people`` people are followed. A person's head and
+hands share what they know of the face: the head's tracker finds the face (its proposals), and
+a hand's tracker, which must keep off the face (a face is skin of about a hand's size), is
+handed where the head's contour puts the face while a face has just been found on the head,
+instead of running its own detector (which looks when the head has no fresh face:
+:meth:`PersonTracker._face_of`).
+
+Several targets, one frame: a target's tracker is handed the boxes the other targets of its
+kind hold (``exclude``): it starts no filter, hypothesis or face proposal inside one, so a
+second person's head is looked for away from the first, a second hand away from the first.
+That keeps new filters apart; one that drifts onto a region another holds is caught by the
+occupancy rule: when the centre of one target lies inside the box of another of its kind, the
+target taken up later is marked LOST (its id retired) and looks again elsewhere. (Keeping a
+hand off the other heads' faces by the same rule was measured and not kept: a head taken up on
+a moving arm then takes the hand's place, hand_wave as a person 0.95 -> 0.49.) Trackers
+wait their turn: a second hand runs only while the first is followed, the next person's
+trackers only while the person before has a head, so an idle slot costs nothing. A hand
+belongs to the person whose head is nearest above it.
 
 Ids: every time a target is taken up (its filter starts TRACKING after WAITING or LOST, or
 restarts farther than the target's width from where it was: onto another face, another
@@ -24,7 +37,7 @@ from typing import NamedTuple
 import numpy as np
 
 from human_tracker.vision.faces import FACE_ON_HEAD
-from human_tracker.vision.target import TRACKING, TargetParameters, TargetResult, TargetTracker, parameters_for
+from human_tracker.vision.target import LOST, TRACKING, TargetParameters, TargetResult, TargetTracker, parameters_for
 from human_tracker.vision.templates import ContourTemplate, make_template
 from human_tracker.vision.tracker import TrackerParameters
 
@@ -32,18 +45,24 @@ __all__ = ['KINDS', 'TARGETS', 'PersonTracker', 'TrackedTarget', 'kinds_of', 'ta
 
 KINDS = ('head', 'hand')
 TARGETS = (*KINDS, 'person')
-"""What a tracker follows: one head, one hand, or a person (a head and a hand)."""
+"""What a tracker follows: one head, one hand, or a person (a head and hands)."""
 
 # A head's contour tells the hand where the face is only while its face was found on it within
 # this many frames: a head that slid onto the raised arm (hand2) would send the hand to the face.
 FRESH_FACE_FRAMES = 4
 
+MAX_HANDS = 2
+"""The most hands a person has."""
 
-def kinds_of(target: str) -> tuple[str, ...]:
-    """The kinds of target a ``target`` (``head``, ``hand`` or ``person``) follows."""
+
+def kinds_of(target: str, hands: int = 1) -> tuple[str, ...]:
+    """The kinds of target one person of ``target`` (``head``, ``hand`` or ``person``) has; a
+    person has a head and ``hands`` hands (0 to :data:`MAX_HANDS`)."""
     if target not in TARGETS:
         raise ValueError(f'target must be one of {", ".join(TARGETS)}, got {target!r}')
-    return KINDS if target == 'person' else (target,)
+    if not 0 <= hands <= MAX_HANDS:
+        raise ValueError(f'hands must be from 0 to {MAX_HANDS}, got {hands}')
+    return ('head',) + ('hand',) * hands if target == 'person' else (target,)
 
 
 class TrackedTarget(NamedTuple):
@@ -53,56 +72,106 @@ class TrackedTarget(NamedTuple):
         id: The target's id while it is followed (from 1, never reused); 0 while it is not
             (WAITING or LOST).
         kind: ``head`` or ``hand``.
-        person: The person the target belongs to (1: one person is followed).
+        person: The person the target belongs to (from 1): a head's own; a hand's, the
+            person whose followed head is nearest above it (its own slot's without one).
         result: The target tracker's outcome, in the camera's pixels.
+        name: The tracker's slot: ``head``, ``hand``, ``hand_2`` for the first person,
+            ``person_2/head``, ... for the others.
     """
 
     id: int
     kind: str
     person: int
     result: TargetResult
+    name: str = ''
 
 
 def targets_line(outcomes: Sequence[TrackedTarget]) -> str:
-    """Every target's kind, id (- while it has none) and state: ``head 1 TRACKING, hand - LOST``."""
-    return ', '.join(f'{o.kind} {o.id or "-"} {o.result.status}' for o in outcomes)
+    """Every target's name, id (- while it has none) and state: ``head 1 TRACKING, hand - LOST``."""
+    return ', '.join(f'{o.name or o.kind} {o.id or "-"} {o.result.status}' for o in outcomes)
+
+
+@dataclass
+class Slot:
+    """One target's tracker and what is known of it between frames.
+
+    Attributes:
+        name: ``head``, ``hand``, ``hand_2``; ``person_<n>/`` before it from the second person.
+        person: The person it was made for (from 1).
+        kind: ``head`` or ``hand``.
+        hand: Which of the person's hands (1 or 2; 0 for a head).
+        tracker: Its target tracker.
+        id: Its current id (0 while not followed).
+        last_state: Its last estimate's state, camera pixels.
+        box: Its box on the last frame it was followed (camera pixels), None otherwise.
+    """
+
+    name: str
+    person: int
+    kind: str
+    hand: int
+    tracker: TargetTracker
+    id: int = 0
+    last_state: np.ndarray | None = None
+    box: tuple[float, float, float, float] | None = None
 
 
 @dataclass
 class PersonTracker:
-    """One :class:`TargetTracker` per kind of ``kinds`` over the same frames, with ids.
+    """One :class:`TargetTracker` per target of ``kinds`` for each of up to ``max_people``
+    people over the same frames, with ids.
 
     Args:
-        kinds: The targets followed: ``('head',)``, ``('hand',)`` or ``('head', 'hand')``
-            (:func:`kinds_of`).
+        kinds: One person's targets: ``('head',)``, ``('hand',)``, or a head and one or two
+            hands (:func:`kinds_of`).
         filter_parameters: The particle filters' constants (each target's own generator is
-            seeded from ``seed`` + its place in ``kinds``, so a run is reproducible).
+            seeded from ``seed`` + its slot's place, so a run is reproducible).
         parameters: Each kind's cue and loss constants (:func:`parameters_for` where absent).
         templates: Each kind's contour (the built-in one where absent).
+        max_people: The most people followed at once (from 1; more than one needs a head,
+            by which a person is found).
     """
 
     kinds: tuple[str, ...] = ('head',)
     filter_parameters: TrackerParameters = field(default_factory=TrackerParameters)
     parameters: dict[str, TargetParameters] = field(default_factory=dict)
     templates: dict[str, ContourTemplate] = field(default_factory=dict)
-    trackers: dict[str, TargetTracker] = field(init=False)
-    ids: dict[str, int] = field(init=False)
+    max_people: int = 1
+    slots: list[Slot] = field(init=False)
     last_id: int = field(default=0, init=False)
-    last_states: dict[str, np.ndarray] = field(init=False)
 
     def __post_init__(self) -> None:
-        if not self.kinds or len(set(self.kinds)) != len(self.kinds) or not set(self.kinds) <= set(KINDS):
-            raise ValueError(f'kinds must be distinct kinds among {", ".join(KINDS)}, got {self.kinds}')
-        self.trackers = {}
-        for place, kind in enumerate(self.kinds):
-            seed = self.filter_parameters.seed + place
-            self.trackers[kind] = TargetTracker(
-                self.templates.get(kind) or make_template(kind),
-                replace(self.filter_parameters, seed=seed),
-                self.parameters.get(kind) or parameters_for(kind),
-            )
-        self.ids = dict.fromkeys(self.kinds, 0)
-        self.last_states = {}
+        allowed = [('hand',), *(('head',) + ('hand',) * hands for hands in range(MAX_HANDS + 1))]
+        if self.kinds not in allowed:
+            raise ValueError(f'kinds must be a head, a hand, or a head and up to {MAX_HANDS} hands, got {self.kinds}')
+        if self.max_people < 1 or (self.max_people > 1 and 'head' not in self.kinds):
+            raise ValueError(f'max_people must be >= 1, and 1 without a head, got {self.max_people}')
+        self.slots = []
+        for person in range(1, self.max_people + 1):
+            for place, kind in enumerate(self.kinds):
+                hand = self.kinds[: place + 1].count('hand')
+                name = kind if hand < 2 else f'{kind}_{hand}'
+                name = name if person == 1 else f'person_{person}/{name}'
+                seed = self.filter_parameters.seed + len(self.slots)
+                tracker = TargetTracker(
+                    self.templates.get(kind) or make_template(kind),
+                    replace(self.filter_parameters, seed=seed),
+                    self.parameters.get(kind) or parameters_for(kind),
+                )
+                self.slots.append(Slot(name, person, kind, hand, tracker))
+
+    @property
+    def trackers(self) -> list[TargetTracker]:
+        """Every slot's tracker, in the slots' order."""
+        return [slot.tracker for slot in self.slots]
+
+    def slot(self, name: str) -> Slot:
+        """The slot named ``name`` (:attr:`TrackedTarget.name`)."""
+        return next(slot for slot in self.slots if slot.name == name)
+
+    def first(self, kind: str) -> TargetTracker:
+        """The first person's tracker of ``kind`` (its first hand for ``hand``)."""
+        return next(slot.tracker for slot in self.slots if slot.kind == kind)
 
     @property
     def uses_skin(self) -> bool:
@@ -110,50 +179,107 @@ class PersonTracker:
         return 'hand' in self.kinds
 
     def initialise_from_box(self, box: tuple[float, float, float, float], kind: str | None = None) -> None:
-        """Start ``kind``'s target (the first of ``kinds`` when None) on a box (x, y, w, h),
-        camera pixels; the others start by themselves."""
-        self.trackers[kind or self.kinds[0]].initialise_from_box(box)
+        """Start the first person's ``kind`` (the first of ``kinds`` when None) on a box (x, y,
+        w, h), camera pixels; the others start by themselves."""
+        self.first(kind or self.kinds[0]).initialise_from_box(box)
 
     def reset(self) -> None:
         """Forget every target; the ids already given stay retired."""
-        for kind, tracker in self.trackers.items():
-            tracker.reset()
-            self.ids[kind] = 0
-        self.last_states.clear()
+        for slot in self.slots:
+            self._clear(slot)
 
     def process(
         self, image: np.ndarray, motion: np.ndarray | None = None, skin: np.ndarray | None = None
     ) -> list[TrackedTarget]:
         """Track every target on one frame (arguments as :meth:`TargetTracker.process`; beside a
-        hand, the skin labels go to the hand only: a head-and-shoulders outline is not skin).
+        hand, the skin labels go to the hands only: a head-and-shoulders outline is not skin).
 
         Returns:
-            One outcome per kind, in the order of ``kinds``.
+            One outcome per slot that runs on this frame (the first person's always), in the
+            slots' order.
         """
-        outcomes = []
+        ran: list[tuple[Slot, TargetResult]] = []
         face = None
-        for kind in self.kinds:
-            tracker = self.trackers[kind]
+        for slot in self.slots:
+            if not self._runs(slot):
+                if slot.tracker.filter.initialised:
+                    self._clear(slot)  # its turn is over: it starts afresh when it comes again
+                continue
+            tracker = slot.tracker
             was_tracking = tracker.status == TRACKING
-            if kind == 'head':
-                result = tracker.process(image, motion, skin if len(self.kinds) == 1 else None)
+            exclude = [o.box for o in self.slots if o is not slot and o.kind == slot.kind and o.box is not None]
+            if slot.kind == 'head':
+                result = tracker.process(image, motion, skin if len(self.kinds) == 1 else None, exclude=exclude)
                 face = self._face_of(tracker, result)
             else:
-                result = tracker.process(image, motion, skin, face=face)
-            if result.tracking and (not was_tracking or self.ids[kind] == 0 or self._jumped(kind, result)):
+                result = tracker.process(image, motion, skin, face=face, exclude=exclude)
+            if result.tracking and (not was_tracking or slot.id == 0 or self._jumped(slot, result)):
                 self.last_id += 1
-                self.ids[kind] = self.last_id
+                slot.id = self.last_id
             elif not result.tracking:
-                self.ids[kind] = 0
+                slot.id = 0
             if result.estimate is not None:
-                self.last_states[kind] = result.estimate.state
-            outcomes.append(TrackedTarget(self.ids[kind], kind, 1, result))
-        return outcomes
+                slot.last_state = result.estimate.state
+            slot.box = result.estimate.box if result.tracking else None
+            ran.append((slot, result))
+        ran = self._keep_apart(ran)
+        return [TrackedTarget(slot.id, slot.kind, self._person_of(slot), result, slot.name) for slot, result in ran]
 
-    def _jumped(self, kind: str, result: TargetResult) -> bool:
+    def _runs(self, slot: Slot) -> bool:
+        """Whether ``slot`` takes its turn on this frame: the first person's head and first hand
+        always; a second hand while the first is followed; another person's targets while the
+        person before has a head followed; any target while it is followed itself."""
+        if slot.box is not None:
+            return True
+        before = [other for other in self.slots if other.person == slot.person - 1 and other.kind == 'head']
+        if before and before[0].box is None:
+            return False
+        if slot.hand > 1:
+            first = next(o for o in self.slots if o.person == slot.person and o.hand == slot.hand - 1)
+            return first.box is not None
+        return True
+
+    def _keep_apart(self, ran: list[tuple[Slot, TargetResult]]) -> list[tuple[Slot, TargetResult]]:
+        """The occupancy rule: of two followed targets of a kind where one's centre lies inside
+        the other's box, the one taken up later (the higher id) is marked LOST."""
+        kept = []
+        for slot, result in ran:
+            box = slot.box
+            taken = box is not None and (
+                any(
+                    other.kind == slot.kind
+                    and other.box is not None
+                    and 0 < other.id < slot.id
+                    and (_centre_within(box, other.box) or _centre_within(other.box, box))
+                    for other, _ in ran
+                )
+            )
+            if taken:
+                slot.tracker.mark_lost()
+                slot.id, slot.box = 0, None
+                result = replace(result, status=LOST)
+            kept.append((slot, result))
+        return kept
+
+    def _person_of(self, slot: Slot) -> int:
+        """A head's own person; a hand's: the person whose followed head is nearest above it."""
+        if slot.kind == 'head' or slot.box is None:
+            return slot.person
+        x, y = _centre(slot.box)
+        heads = [o for o in self.slots if o.kind == 'head' and o.box is not None and _centre(o.box)[1] < y]
+        if not heads:
+            return slot.person
+        return min(heads, key=lambda o: float(np.hypot(*np.subtract(_centre(o.box), (x, y))))).person
+
+    def _clear(self, slot: Slot) -> None:
+        slot.tracker.reset()
+        slot.id, slot.last_state, slot.box = 0, None, None
+
+    @staticmethod
+    def _jumped(slot: Slot, result: TargetResult) -> bool:
         """Whether the filter restarted farther than the target's width (its scale) from its
         last estimate."""
-        last = self.last_states.get(kind)
+        last = slot.last_state
         if not result.initialised or last is None or result.estimate is None:
             return False
         return float(np.hypot(*(result.estimate.state[:2] - last[:2]))) > last[2]
@@ -165,3 +291,13 @@ class PersonTracker:
         would send the hand to the face): the hand's own detector looks then."""
         fresh = head.last_face is not None and head.frames_without_own_face <= FRESH_FACE_FRAMES
         return FACE_ON_HEAD.box(result.estimate.state) if result.tracking and fresh else None
+
+
+def _centre(box: tuple[float, float, float, float]) -> tuple[float, float]:
+    return box[0] + box[2] / 2, box[1] + box[3] / 2
+
+
+def _centre_within(box: tuple[float, float, float, float], outer: tuple[float, float, float, float]) -> bool:
+    """Whether the centre of ``box`` lies inside ``outer`` (both x, y, w, h)."""
+    x, y = _centre(box)
+    return outer[0] <= x <= outer[0] + outer[2] and outer[1] <= y <= outer[1] + outer[3]

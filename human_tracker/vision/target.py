@@ -35,6 +35,7 @@ filter (the template's fit tells the hand from the face and skin-coloured things
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from functools import partial
 from typing import NamedTuple
@@ -43,7 +44,7 @@ import cv2
 import numpy as np
 
 from human_tracker.vision.appearance import AppearanceModel, colour_bins
-from human_tracker.vision.boxes import BoxRelation
+from human_tracker.vision.boxes import Box, BoxRelation
 from human_tracker.vision.camera_motion import estimate_camera_motion
 from human_tracker.vision.faces import FACE_ON_HEAD, Detection, FaceDetector, face_detector_available
 from human_tracker.vision.initialisation import blobs, moments_state, state_from_scan
@@ -464,17 +465,24 @@ class TargetTracker:
         self.started_from_box = False
         self.frames = 0
 
-    def initial_region(self, motion: np.ndarray | None, skin: np.ndarray | None) -> np.ndarray | None:
-        """The mask X_0 is computed from (``init_region``), or None without the cues it needs."""
+    def initial_region(
+        self, motion: np.ndarray | None, skin: np.ndarray | None, exclude: Sequence[Box] = ()
+    ) -> np.ndarray | None:
+        """The mask X_0 is computed from (``init_region``), or None without the cues it needs;
+        zero on the face to avoid (``avoid_faces``) and on ``exclude`` (boxes x, y, w, h, working
+        pixels: other targets')."""
         if self.parameters.init_region == 'skin' and skin is not None:
             region = skin
         else:
             region = motion if motion is not None else skin
-        if region is None or not self.parameters.avoid_faces or self.last_face is None:
+        cleared = list(exclude)
+        if self.parameters.avoid_faces and self.last_face is not None:
+            cleared.append(_face_and_neck(self.last_face))
+        if region is None or not cleared:
             return region
-        x, y, w, h = _face_and_neck(self.last_face)
         region = region.copy()
-        region[max(0, int(y)) : max(0, int(y + h)), max(0, int(x)) : max(0, int(x + w))] = 0
+        for x, y, w, h in cleared:
+            region[max(0, int(y)) : max(0, int(y + h)), max(0, int(x)) : max(0, int(x + w))] = 0
         return region
 
     def initial_states(self, region: np.ndarray) -> list[np.ndarray]:
@@ -532,6 +540,7 @@ class TargetTracker:
         motion: np.ndarray | None = None,
         skin: np.ndarray | None = None,
         face: tuple[float, float, float, float] | None = None,
+        exclude: Sequence[Box] = (),
     ) -> TargetResult:
         """Track on one frame.
 
@@ -544,6 +553,9 @@ class TargetTracker:
             face: With ``avoid_faces``: the face on this frame (x, y, w, h, camera pixels)
                 where another tracker places it, used instead of a run of this tracker's
                 own detector; None: the detector runs as scheduled.
+            exclude: Boxes (x, y, w, h, camera pixels) other targets hold: no start, hypothesis
+                or face proposal is taken inside one (two filters must not settle on one
+                person).
 
         Returns:
             The outcome, its estimate in the camera's pixels.
@@ -583,14 +595,17 @@ class TargetTracker:
             self._settle_on_start_box(edges, likelihood_motion, likelihood_skin, bins)
         given_box = None if self.start_box is None else tuple(v * self.scale for v in self.start_box)
         self.start_box = None
+        exclude = [tuple(v * self.scale for v in box) for box in exclude]
         detections = None if handed else self._detect(image)
+        if detections and exclude:
+            detections = [d for d in detections if not any(_centre_within(d.box, box) for box in exclude)]
         # Faces are the target's proposals, or (avoid_faces) what the hand is not.
         head_faces = detections if p.proposals == 'faces' else None
         states = np.array([FACE_ON_HEAD.state(d.box) for d in head_faces]) if head_faces else None
-        region = self.initial_region(motion, skin)
+        region = self.initial_region(motion, skin, exclude)
         skin_region = skin_starts = None
         if p.proposals == 'skin' and skin is not None:
-            skin_region = region if p.init_region == 'skin' else self.initial_region(None, skin)
+            skin_region = region if p.init_region == 'skin' else self.initial_region(None, skin, exclude)
             skin_starts = self.initial_states(skin_region)
             states = np.array(skin_starts) if skin_starts else None
         appearance = self._appearance_term(bins)

@@ -59,6 +59,7 @@ POSE_COLUMNS = (
     'person',
     'target',
 )
+_AFTER_STATUS = len(POSE_COLUMNS) - POSE_COLUMNS.index('status') - 1
 
 
 @dataclass
@@ -137,6 +138,7 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
         max_people=options.max_people if target == 'person' else 1,
     )
     names = [slot.name for slot in people.slots]
+    kind_of = {slot.name: slot.kind for slot in people.slots}
     width = people.trackers[0].parameters.working_width
     init_kind = options.init_kind or (sequence.target if sequence.target in kinds else kinds[0])
     if init_kind not in kinds:
@@ -167,7 +169,7 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
                 for name in names:
                     predicted[name].append(None)
                     ids[name].append(0)
-                table.writerow([frame.index, frame.stamp_ns, *[''] * 5, 'REJECTED', *[''] * 10])
+                table.writerow([frame.index, frame.stamp_ns, *[''] * 5, 'REJECTED', *[''] * _AFTER_STATUS])
                 continue
             start = time.perf_counter()
             gray = to_mono8(frame.image)
@@ -241,22 +243,26 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
         summary.update(summarise(predicted[scored], truth))
         summary.update(identity_scores({'truth': truth}, one_track(ids[scored], predicted[scored])))
     if len(tracks) > 1:
-        summary.update(_several_tracks(tracks, predicted, ids))
+        summary.update(_several_tracks(tracks, predicted, ids, kind_of))
     summary['plots'] = [p.name for p in plot_run(out, predicted[scored], truth, sequence.name)]
     (out / 'summary.json').write_text(json.dumps(summary, indent=2) + '\n')
     return summary
 
 
 def _several_tracks(
-    tracks: dict[str, list[Box | None]], predicted: dict[str, list[Box | None]], ids: dict[str, list[int]]
+    tracks: dict[str, list[Box | None]],
+    predicted: dict[str, list[Box | None]],
+    ids: dict[str, list[int]],
+    kind_of: dict[str, str],
 ) -> dict[str, object]:
     """Scores of a sequence with several ground-truth tracks (``person_1/head``, ...): each
     track's precision against the target of its kind (the last part of its name) that matches
-    it best, and MOTA, IDF1 and identity switches of every target against every track."""
+    it best (``kind_of``: each target's kind, by name), and MOTA, IDF1 and identity switches of
+    every target against every track."""
     scores: dict[str, object] = {}
     for name, boxes in tracks.items():
         kind = name.rsplit('/', 1)[-1]
-        precisions = [summarise(p, boxes)['precision_20px'] for slot, p in predicted.items() if _kind(slot) == kind]
+        precisions = [summarise(p, boxes)['precision_20px'] for slot, p in predicted.items() if kind_of[slot] == kind]
         if precisions:
             scores[name] = {'precision_20px': max(precisions)}
     reported = [
@@ -266,17 +272,12 @@ def _several_tracks(
     return {'tracks': scores, 'all_tracks': identity_scores(tracks, reported)}
 
 
-def _kind(slot: str) -> str:
-    """``head`` or ``hand`` of a target slot's name (``person_2/hand_2``: ``hand``)."""
-    return slot.rsplit('/', 1)[-1].split('_')[0]
-
-
 def _pose_row(index: int, stamp_ns: int, outcome: TrackedTarget) -> list[object]:
     """One target's row of ``poses.csv`` (:data:`POSE_COLUMNS`)."""
     result, estimate = outcome.result, outcome.result.estimate
     who = [outcome.id or '', outcome.kind, outcome.person, outcome.name]
     if estimate is None:
-        return [index, stamp_ns, *[''] * 5, result.status, *[''] * 7, *who]
+        return [index, stamp_ns, *[''] * 5, result.status, *[''] * (_AFTER_STATUS - len(who)), *who]
     x, y, s, theta = (round(float(v), 4) for v in estimate.state)
     shown = [round(v, 2) for v in estimate.box] if result.tracking else ['', '', '', '']
     support = (estimate.motion_support, estimate.skin_support, estimate.appearance_distance)

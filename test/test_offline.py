@@ -138,6 +138,7 @@ def test_unreadable_frames_are_counted_and_the_run_goes_on(tmp_path, head_bag) -
     assert (summary['frames'], summary['frames_processed'], summary['frames_rejected']) == (12, 11, 1)
     rows = list(csv.DictReader((tmp_path / 'out' / 'poses.csv').open()))
     assert rows[5]['status'] == 'REJECTED' and rows[6]['status'] == 'TRACKING'
+    assert None not in rows[5].values() and None not in rows[5]  # every column, no more
     # A bag whose frame 3 holds bytes that are no JPEG: counted, the rest tracked.
     images = [(f.stamp_ns, cv2.imdecode(f.message.data, cv2.IMREAD_COLOR), f.ground_truth) for f in frames]
     bag = write_bag(tmp_path / 'bag', images)

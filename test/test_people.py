@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import itertools
 import json
 
 import numpy as np
@@ -16,6 +17,7 @@ from human_tracker.offline import POSE_COLUMNS, TrackOptions, read_poses, track_
 from human_tracker.ros.image_conversion import message_to_bgr8
 from human_tracker.scenes.generator import PEOPLE_TARGETS, SCENES, render_scene
 from human_tracker.vision.background import BackgroundModel
+from human_tracker.vision.boxes import centre_within
 from human_tracker.vision.faces import FACE_ON_HEAD, Detection
 from human_tracker.vision.people import FRESH_FACE_FRAMES, PersonTracker, kinds_of
 from human_tracker.vision.resolution import to_working
@@ -219,11 +221,7 @@ def test_two_people_each_keep_their_head_and_id(tmp_path) -> None:
                 tuple(float(r[k]) for k in ('box_x', 'box_y', 'box_w', 'box_h'))
             )
     for boxes in followed.values():
-        for a in boxes:
-            for b in boxes:
-                if a is not b:
-                    x, y = a[0] + a[2] / 2, a[1] + a[3] / 2
-                    assert not (b[0] <= x <= b[0] + b[2] and b[1] <= y <= b[1] + b[3])
+        assert not any(centre_within(a, b) for a, b in itertools.permutations(boxes, 2))
 
 
 def test_the_occupancy_rule_keeps_the_target_taken_up_first() -> None:

@@ -13,9 +13,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ['Box', 'BoxRelation']
+__all__ = ['Box', 'BoxRelation', 'box_centre', 'centre_within']
 
 Box = tuple[float, float, float, float]
+
+
+def box_centre(box: Box) -> tuple[float, float]:
+    """The centre (x, y) of a box (x, y, w, h)."""
+    return box[0] + box[2] / 2, box[1] + box[3] / 2
+
+
+def centre_within(box: Box, outer: Box) -> bool:
+    """Whether the centre of ``box`` lies inside ``outer`` (both x, y, w, h)."""
+    x, y = box_centre(box)
+    return outer[0] <= x <= outer[0] + outer[2] and outer[1] <= y <= outer[1] + outer[3]
 
 
 @dataclass(frozen=True)

@@ -36,6 +36,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from human_tracker.vision.boxes import box_centre, centre_within
 from human_tracker.vision.faces import FACE_ON_HEAD
 from human_tracker.vision.target import LOST, TRACKING, TargetParameters, TargetResult, TargetTracker, parameters_for
 from human_tracker.vision.templates import ContourTemplate, make_template
@@ -231,13 +232,14 @@ class PersonTracker:
         person before has a head followed; any target while it is followed itself."""
         if slot.box is not None:
             return True
-        before = [other for other in self.slots if other.person == slot.person - 1 and other.kind == 'head']
-        if before and before[0].box is None:
-            return False
-        if slot.hand > 1:
-            first = next(o for o in self.slots if o.person == slot.person and o.hand == slot.hand - 1)
-            return first.box is not None
-        return True
+        # The slot it waits for: the first hand of a second; the head of the person before.
+        waits_for = [
+            o
+            for o in self.slots
+            if (o.person == slot.person and slot.hand > 1 and o.hand == slot.hand - 1)
+            or (o.person == slot.person - 1 and o.kind == 'head')
+        ]
+        return all(o.box is not None for o in waits_for)
 
     def _keep_apart(self, ran: list[tuple[Slot, TargetResult]]) -> list[tuple[Slot, TargetResult]]:
         """The occupancy rule: of two followed targets of a kind where one's centre lies inside
@@ -249,8 +251,8 @@ class PersonTracker:
                 any(
                     other.kind == slot.kind
                     and other.box is not None
-                    and 0 < other.id < slot.id
-                    and (_centre_within(box, other.box) or _centre_within(other.box, box))
+                    and other.id < slot.id
+                    and (centre_within(box, other.box) or centre_within(other.box, box))
                     for other, _ in ran
                 )
             )
@@ -265,11 +267,11 @@ class PersonTracker:
         """A head's own person; a hand's: the person whose followed head is nearest above it."""
         if slot.kind == 'head' or slot.box is None:
             return slot.person
-        x, y = _centre(slot.box)
-        heads = [o for o in self.slots if o.kind == 'head' and o.box is not None and _centre(o.box)[1] < y]
+        x, y = box_centre(slot.box)
+        heads = [o for o in self.slots if o.kind == 'head' and o.box is not None and box_centre(o.box)[1] < y]
         if not heads:
             return slot.person
-        return min(heads, key=lambda o: float(np.hypot(*np.subtract(_centre(o.box), (x, y))))).person
+        return min(heads, key=lambda o: float(np.hypot(*np.subtract(box_centre(o.box), (x, y))))).person
 
     def _clear(self, slot: Slot) -> None:
         slot.tracker.reset()
@@ -291,13 +293,3 @@ class PersonTracker:
         would send the hand to the face): the hand's own detector looks then."""
         fresh = head.last_face is not None and head.frames_without_own_face <= FRESH_FACE_FRAMES
         return FACE_ON_HEAD.box(result.estimate.state) if result.tracking and fresh else None
-
-
-def _centre(box: tuple[float, float, float, float]) -> tuple[float, float]:
-    return box[0] + box[2] / 2, box[1] + box[3] / 2
-
-
-def _centre_within(box: tuple[float, float, float, float], outer: tuple[float, float, float, float]) -> bool:
-    """Whether the centre of ``box`` lies inside ``outer`` (both x, y, w, h)."""
-    x, y = _centre(box)
-    return outer[0] <= x <= outer[0] + outer[2] and outer[1] <= y <= outer[1] + outer[3]

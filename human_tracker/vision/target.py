@@ -44,7 +44,7 @@ import cv2
 import numpy as np
 
 from human_tracker.vision.appearance import AppearanceModel, colour_bins
-from human_tracker.vision.boxes import Box, BoxRelation
+from human_tracker.vision.boxes import Box, BoxRelation, centre_within
 from human_tracker.vision.camera_motion import estimate_camera_motion
 from human_tracker.vision.faces import FACE_ON_HEAD, Detection, FaceDetector, face_detector_available
 from human_tracker.vision.initialisation import blobs, moments_state, state_from_scan
@@ -598,7 +598,7 @@ class TargetTracker:
         exclude = [tuple(v * self.scale for v in box) for box in exclude]
         detections = None if handed else self._detect(image)
         if detections and exclude:
-            detections = [d for d in detections if not any(_centre_within(d.box, box) for box in exclude)]
+            detections = [d for d in detections if not any(centre_within(d.box, box) for box in exclude)]
         # Faces are the target's proposals, or (avoid_faces) what the hand is not.
         head_faces = detections if p.proposals == 'faces' else None
         states = np.array([FACE_ON_HEAD.state(d.box) for d in head_faces]) if head_faces else None
@@ -656,7 +656,7 @@ class TargetTracker:
             p.avoid_faces
             and self.face_misses == 0
             and self.last_face is not None
-            and _centre_within(estimate.box, _face_and_neck(self.last_face))
+            and centre_within(estimate.box, _face_and_neck(self.last_face))
         )
         if face is not None and self.status == TRACKING:
             self._anchor_on_face(face, working_state, given_box)
@@ -974,12 +974,6 @@ def _face_and_neck(face: tuple[float, float, float, float]) -> tuple[float, floa
     chin, and the forehead above it and the neck below it are skin of the same region."""
     x, y, w, h = face
     return (x - 0.2 * w, y - 0.3 * h, 1.4 * w, 2.1 * h)
-
-
-def _centre_within(box: tuple[float, float, float, float], outer: tuple[float, float, float, float]) -> bool:
-    """Whether the centre of ``box`` lies inside ``outer`` (both x, y, w, h)."""
-    x, y, w, h = outer
-    return x <= box[0] + box[2] / 2 <= x + w and y <= box[1] + box[3] / 2 <= y + h
 
 
 def _exposure_gain(image: np.ndarray, max_gain: float = 4.0) -> np.ndarray:

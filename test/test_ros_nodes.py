@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import dataclasses
 import re
 import time
@@ -39,6 +40,7 @@ from human_tracker.offline import TrackOptions, read_poses, read_tracks, track_s
 from human_tracker.ros.collector import PoseCollector
 from human_tracker.ros.processes import NodeProcess
 from human_tracker.scenes.generator import HEAD_WIDTH, SCENES, render_scene
+from human_tracker.vision.boxes import box_centre
 from human_tracker.vision.camera import back_project, default_camera_matrix, metric_positions
 from human_tracker.vision.templates import ContourTemplate, fit_state, head_and_shoulders, open_hand
 from human_tracker.vision.tracker import box_from_state
@@ -284,6 +286,56 @@ def test_a_person_pipeline_names_each_target_on_targets(tmp_path) -> None:
             near += np.hypot(centre[0] - gx - gw / 2, centre[1] - gy - gh / 2) <= 20.0
     print(f'person over DDS: ids {ids}, hand within 20 px on {near} of {len(frames)} frames')
     assert near >= 0.9 * len(frames)
+
+
+def test_two_people_over_dds_are_the_offline_commands(tmp_path) -> None:
+    """people_crossing with max_people:=2: each person's head on ``targets`` under one id, at the
+    offline command's positions, and following its own person's ground truth."""
+    bag = REPO / 'bags' / 'people_crossing'
+    frames = list(read_frames(bag))
+    args = node_arguments(COMPRESSED_CAMERA_TOPIC, True) + ['-p', 'target:=person', '-p', 'max_people:=2']
+    pipeline = NodeProcess('human_tracker.ros.pipeline', args, environment(), tmp_path / 'pipeline.log')
+    collector = replay_and_collect(
+        pipeline, bag, COMPRESSED_CAMERA_TOPIC, tmp_path, len(frames), diagnostics_of='/tracker_node'
+    )
+    height, width = message_to_bgr8(frames[0].message).shape[:2]
+    k = default_camera_matrix(width, height)
+    heads: dict[str, list[tuple[float, float] | None]] = {'person_1': [], 'person_2': []}
+    ids: dict[str, set[int]] = {'person_1': set(), 'person_2': set()}
+    for frame in frames:
+        seen: dict[str, tuple[float, float]] = {}
+        for odometry in collector.targets.get(frame.stamp_ns, []):
+            person, name = odometry.child_frame_id.split('/')
+            kind, ident = name.split('_')
+            if kind == 'head':
+                p = odometry.pose.pose.position
+                seen[person] = (k[0, 0] * p.x / p.z + k[0, 2], k[1, 1] * p.y / p.z + k[1, 2])
+                ids[person].add(int(ident))
+        for person in heads:
+            heads[person].append(seen.get(person))
+    assert len(ids['person_1']) == len(ids['person_2']) == 1 and not ids['person_1'] & ids['person_2']
+    track_sequence(bag, tmp_path / 'offline', TrackOptions(max_people=2, video=False, progress=False))
+    rows = list(csv.DictReader((tmp_path / 'offline' / 'poses.csv').open()))
+    template = head_and_shoulders()
+    for person, slot in (('person_1', 'head'), ('person_2', 'person_2/head')):
+        # The pose is the centre of the contour's head box, not of the box reported (placed by the face).
+        offline = [
+            box_centre(box_from_state(np.array([float(r[k]) for k in ('x', 'y', 'scale', 'theta')]), template))
+            if r['status'] == 'TRACKING'
+            else None
+            for r in rows
+            if r['target'] == slot
+        ]
+        assert [c is not None for c in heads[person]] == [c is not None for c in offline]
+        near = in_view = 0
+        for centre, expected, frame in zip(heads[person], offline, frames, strict=True):
+            truth = frame.ground_truths[f'{person}/head']
+            in_view += truth is not None
+            if centre is not None:
+                np.testing.assert_allclose(centre, expected, atol=0.05)
+                near += truth is not None and np.hypot(*np.subtract(centre, box_centre(truth))) <= 20.0
+        print(f'{person}/head over DDS: within 20 px of its truth on {near} of its {in_view} frames in view')
+        assert near >= 0.9 * in_view
 
 
 def _set(client: AsyncParameterClient, node: Node, name: str, value) -> SetParametersResult:

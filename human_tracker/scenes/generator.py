@@ -80,6 +80,8 @@ class SceneSpec:
         depth: Also render a depth image per frame (head scenes).
         arrival: Frames over which the standing person of a hand or people scene steps in from
             the left to their place (0: there from the first frame).
+        faces: Draw faces a face detector finds (brows, eyes, nose, mouth) instead of two dots
+            and a mouth.
     """
 
     name: str
@@ -103,6 +105,7 @@ class SceneSpec:
     absent: tuple[tuple[int, int], ...] = ()
     depth: bool = False
     arrival: int = 0
+    faces: bool = False
 
 
 @dataclass
@@ -227,8 +230,10 @@ def _draw_person(
     shirt: np.ndarray,
     gain: float,
     skin_mask: np.ndarray | None = None,
+    face: bool = False,
 ) -> None:
-    """Draw neck and shoulders, then the head with hair and face features, at ``state``.
+    """Draw neck and shoulders, then the head with hair and face features, at ``state``
+    (with ``face``, the features of :func:`_draw_face`).
 
     ``skin_mask``, when given, receives the face's skin pixels (255), hair and features excluded.
     """
@@ -247,6 +252,12 @@ def _draw_person(
     for canvas, skin_colour, line in targets:
         hair, feature = (hair_colour, dark) if canvas is image else (0, 0)
         cv2.fillPoly(canvas, [_head_polygon(state)], skin_colour, line)
+        if face:
+            # The hair a cap above the brows, not a wedge down to the eyes.
+            cv2.fillPoly(canvas, [np.round(_to_image(_HAIRLINE_CAP, state)).astype(np.int32)], hair, line)
+            shade = tuple(0.75 * float(c) for c in skin_colour) if canvas is image else 0
+            _draw_face(canvas, state, feature, shade, line)
+            continue
         _draw_hair(canvas, state, hair, line)
         for fx, fy in features[:2]:
             cv2.circle(canvas, (int(round(fx)), int(round(fy))), max(1, int(s * 0.05)), feature, -1, line)
@@ -261,6 +272,40 @@ def _draw_person(
             -1,
             line,
         )
+
+
+# A face's features in the head's frame (one unit wide, centred, y down): brows (from, to),
+# eyes (centre, half-axes), the nose's ridge (from, to) and nostrils (centre, half-axes), the
+# mouth (centre, half-axes). Shaded like this, a face of 30 px and up is a face to dlib's HOG
+# detector; two dots and a mouth are not.
+_CAP_ANGLES = np.linspace(0.0, 2.0 * np.pi, 73)
+_HAIRLINE_CAP = np.column_stack([_HEAD_HALF_WIDTH * np.cos(_CAP_ANGLES), _HEAD_HALF_HEIGHT * np.sin(_CAP_ANGLES)])
+_HAIRLINE_CAP = _HAIRLINE_CAP[_HAIRLINE_CAP[:, 1] < -0.24]
+_BROWS = (((-0.3, -0.17), (-0.07, -0.19)), ((0.07, -0.19), (0.3, -0.17)))
+_EYES = (((-0.19, -0.07), (0.1, 0.045)), ((0.19, -0.07), (0.1, 0.045)))
+_NOSE = ((-0.03, -0.02), (-0.05, 0.17))
+_NOSTRILS = ((0.0, 0.19), (0.08, 0.035))
+_MOUTH = ((0.0, 0.33), (0.15, 0.045))
+
+
+def _draw_face(canvas: np.ndarray, state: np.ndarray, dark: object, shade: object, line: int) -> None:
+    """Brows, eyes and mouth in ``dark``, the nose in ``shade``, on the head at ``state``."""
+    s, degrees = state[2], float(np.degrees(state[3]))
+    thickness = max(1, int(round(0.035 * s)))
+
+    def at(point: tuple[float, float]) -> tuple[int, int]:
+        u, v = _to_image(np.array([point]), state)[0]
+        return int(round(u)), int(round(v))
+
+    def axes(half: tuple[float, float]) -> tuple[int, int]:
+        return max(1, int(round(half[0] * s))), max(1, int(round(half[1] * s)))
+
+    for start, end in _BROWS:
+        cv2.line(canvas, at(start), at(end), dark, thickness, line)
+    for centre, half in (*_EYES, _MOUTH):
+        cv2.ellipse(canvas, at(centre), axes(half), degrees, 0, 360, dark, -1, line)
+    cv2.line(canvas, at(_NOSE[0]), at(_NOSE[1]), shade, thickness, line)
+    cv2.ellipse(canvas, at(_NOSTRILS[0]), axes(_NOSTRILS[1]), degrees, 0, 180, shade, thickness, line)
 
 
 # An open hand one unit wide in the hand template's frame (x right, y down, hand centred
@@ -408,7 +453,7 @@ def render_scene(spec: SceneSpec) -> Iterator[SceneFrame]:
             person = np.array(
                 [spec.width * (0.22 - step + 0.01 * np.sin(motion_time)), spec.height * 0.3, spec.head_width, 0.0]
             )
-            _draw_person(frame, person, skin, shirt, gain, skin_mask)
+            _draw_person(frame, person, skin, shirt, gain, skin_mask, spec.faces)
             state = _hand_trajectory(spec, motion_time)
             if visible:
                 _draw_hand(frame, state, skin, sleeve, gain, skin_mask)
@@ -416,7 +461,7 @@ def render_scene(spec: SceneSpec) -> Iterator[SceneFrame]:
             targets = {'person_1/hand': box}
             if spec.target == 'people':
                 walker = _walker(spec, index)
-                _draw_person(frame, walker, walker_skin, walker_shirt, gain, skin_mask)
+                _draw_person(frame, walker, walker_skin, walker_shirt, gain, skin_mask, spec.faces)
                 in_view = 0.0 <= walker[0] < spec.width
                 targets = {
                     'person_1/head': _box(_head_polygon(person)),
@@ -427,7 +472,7 @@ def render_scene(spec: SceneSpec) -> Iterator[SceneFrame]:
         else:
             state = _trajectory(spec, motion_time)
             if visible:
-                _draw_person(frame, state, skin, shirt, gain, skin_mask)
+                _draw_person(frame, state, skin, shirt, gain, skin_mask, spec.faces)
             box = _box(_head_polygon(state)) if visible else None
             targets = {'person_1/head': box}
         noisy = frame.astype(np.float32) + noise_rng.normal(0, spec.noise_sigma, size=frame.shape)
@@ -497,7 +542,7 @@ SCENES: dict[str, SceneSpec] = {
             pauses=((60, 85),),
         ),
         # Two people: one steps in (frames 0-20) and waves a hand, the other walks across in front
-        # of both (in view on frames 17-140).
+        # of both (in view on frames 17-140). Their faces are faces to the detector.
         SceneSpec(
             name='people_crossing',
             target='people',
@@ -510,6 +555,7 @@ SCENES: dict[str, SceneSpec] = {
             scale_change=0.1,
             max_rotation=0.3,
             arrival=20,
+            faces=True,
         ),
     )
 }

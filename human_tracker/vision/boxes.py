@@ -23,10 +23,12 @@ def box_centre(box: Box) -> tuple[float, float]:
     return box[0] + box[2] / 2, box[1] + box[3] / 2
 
 
-def centre_within(box: Box, outer: Box) -> bool:
-    """Whether the centre of ``box`` lies inside ``outer`` (both x, y, w, h)."""
+def centre_within(box: Box, outer: Box, share: float = 1.0) -> bool:
+    """Whether the centre of ``box`` lies inside ``outer`` (both x, y, w, h), or inside the
+    central ``share`` of its width and height."""
     x, y = box_centre(box)
-    return outer[0] <= x <= outer[0] + outer[2] and outer[1] <= y <= outer[1] + outer[3]
+    cx, cy = box_centre(outer)
+    return abs(x - cx) <= share * outer[2] / 2 and abs(y - cy) <= share * outer[3] / 2
 
 
 @dataclass(frozen=True)

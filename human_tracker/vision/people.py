@@ -3,24 +3,27 @@
 The paper's introduction asks for "the determination of the person's pose as well as the
 location of the hand(s)". A person here is a head (head-and-shoulders contour) and up to two
 hands (open-hand contours), each its own :class:`~human_tracker.vision.target.TargetTracker`
-over the same frames and cues; up to ``max_people`` people are followed. A person's head and
-hands share what they know of the face: the head's tracker finds the face (its proposals), and
-a hand's tracker, which must keep off the face (a face is skin of about a hand's size), is
-handed where the head's contour puts the face while a face has just been found on the head,
-instead of running its own detector (which looks when the head has no fresh face:
-:meth:`PersonTracker._face_of`).
+over the same frames and cues; up to ``max_people`` people are followed. The heads run first
+on each frame, and the hands use what they found of the faces: a hand's tracker, which must
+keep off faces (a face is skin of about a hand's size), is handed where its person's head's
+contour puts the face while a face has just been found on that head, instead of running its
+own detector (which looks when the head has no fresh face: :meth:`PersonTracker._face_of`),
+and the fresh faces of the other people's heads to keep off too (``avoid``). A head whose
+face is not fresh (one taken up on a waving arm) hands nothing: kept off it, the hand lost
+its place to such a head (hand_wave as a person 0.95 -> 0.49).
 
 Several targets, one frame: a target's tracker is handed the boxes the other targets of its
 kind hold (``exclude``): it starts no filter, hypothesis or face proposal inside one, so a
 second person's head is looked for away from the first, a second hand away from the first.
 That keeps new filters apart; one that drifts onto a region another holds is caught by the
-occupancy rule: when the centre of one target lies inside the box of another of its kind, the
-target taken up later is marked LOST (its id retired) and looks again elsewhere. (Keeping a
-hand off the other heads' faces by the same rule was measured and not kept: a head taken up on
-a moving arm then takes the hand's place, hand_wave as a person 0.95 -> 0.49.) Trackers
-wait their turn: a second hand runs only while the first is followed, the next person's
-trackers only while the person before has a head, so an idle slot costs nothing. A hand
-belongs to the person whose head is nearest above it.
+occupancy rule: when the centre of one target lies in the central half of the box of another
+of its kind, the target taken up later is marked LOST (its id retired) and looks again
+elsewhere. The central half, not the whole box: a person standing behind another overlaps
+the other's box, and marking them LOST gave their place to the one in front
+(people_crossing, person_1/head 0.67 -> 1.00). Trackers wait their turn: a second hand runs
+only while the first is followed, the next person's trackers only while the person before
+has a head, so an idle slot costs nothing. A hand belongs to the person whose head is
+nearest above it.
 
 Ids: every time a target is taken up (its filter starts TRACKING after WAITING or LOST, or
 restarts farther than the target's width from where it was: onto another face, another
@@ -51,6 +54,10 @@ TARGETS = (*KINDS, 'person')
 # A head's contour tells the hand where the face is only while its face was found on it within
 # this many frames: a head that slid onto the raised arm (hand2) would send the hand to the face.
 FRESH_FACE_FRAMES = 4
+
+# Two targets of a kind are on one region when the centre of one lies in the central half of
+# the other's box: two heads side by side, one behind the other, overlap more than that.
+SAME_REGION = 0.5
 
 MAX_HANDS = 2
 """The most hands a person has."""
@@ -200,8 +207,9 @@ class PersonTracker:
             slots' order.
         """
         ran: list[tuple[Slot, TargetResult]] = []
-        face = None
-        for slot in self.slots:
+        faces: dict[int, tuple[float, float, float, float] | None] = {}  # by person
+        # Heads first: a hand keeps off the faces they find, every person's.
+        for slot in sorted(self.slots, key=lambda o: o.kind != 'head'):
             if not self._runs(slot):
                 if slot.tracker.filter.initialised:
                     self._clear(slot)  # its turn is over: it starts afresh when it comes again
@@ -211,9 +219,11 @@ class PersonTracker:
             exclude = [o.box for o in self.slots if o is not slot and o.kind == slot.kind and o.box is not None]
             if slot.kind == 'head':
                 result = tracker.process(image, motion, skin if len(self.kinds) == 1 else None, exclude=exclude)
-                face = self._face_of(tracker, result)
+                faces[slot.person] = self._face_of(tracker, result)
             else:
-                result = tracker.process(image, motion, skin, face=face, exclude=exclude)
+                others = [f for person, f in faces.items() if person != slot.person and f is not None]
+                face = faces.get(slot.person)
+                result = tracker.process(image, motion, skin, face=face, exclude=exclude, avoid=others)
             if result.tracking and (not was_tracking or slot.id == 0 or self._jumped(slot, result)):
                 self.last_id += 1
                 slot.id = self.last_id
@@ -223,7 +233,7 @@ class PersonTracker:
                 slot.last_state = result.estimate.state
             slot.box = result.estimate.box if result.tracking else None
             ran.append((slot, result))
-        ran = self._keep_apart(ran)
+        ran = self._keep_apart(sorted(ran, key=lambda run: self.slots.index(run[0])))
         return [TrackedTarget(slot.id, slot.kind, self._person_of(slot), result, slot.name) for slot, result in ran]
 
     def _runs(self, slot: Slot) -> bool:
@@ -252,7 +262,7 @@ class PersonTracker:
                     other.kind == slot.kind
                     and other.box is not None
                     and other.id < slot.id
-                    and (centre_within(box, other.box) or centre_within(other.box, box))
+                    and (centre_within(box, other.box, SAME_REGION) or centre_within(other.box, box, SAME_REGION))
                     for other, _ in ran
                 )
             )

@@ -44,7 +44,7 @@ import cv2
 import numpy as np
 
 from human_tracker.vision.appearance import AppearanceModel, colour_bins
-from human_tracker.vision.boxes import Box, BoxRelation, centre_within
+from human_tracker.vision.boxes import Box, BoxRelation, box_centre, centre_within
 from human_tracker.vision.camera_motion import estimate_camera_motion
 from human_tracker.vision.faces import FACE_ON_HEAD, Detection, FaceDetector, face_detector_available
 from human_tracker.vision.initialisation import blobs, moments_state, state_from_scan
@@ -541,6 +541,7 @@ class TargetTracker:
         skin: np.ndarray | None = None,
         face: tuple[float, float, float, float] | None = None,
         exclude: Sequence[Box] = (),
+        avoid: Sequence[Box] = (),
     ) -> TargetResult:
         """Track on one frame.
 
@@ -556,6 +557,9 @@ class TargetTracker:
             exclude: Boxes (x, y, w, h, camera pixels) other targets hold: no start, hypothesis
                 or face proposal is taken inside one (two filters must not settle on one
                 person).
+            avoid: With ``avoid_faces``: other people's faces on this frame (x, y, w, h,
+                camera pixels), kept off as the person's own: no start on one or its neck,
+                and a contour on one is a weak frame.
 
         Returns:
             The outcome, its estimate in the camera's pixels.
@@ -596,16 +600,19 @@ class TargetTracker:
         given_box = None if self.start_box is None else tuple(v * self.scale for v in self.start_box)
         self.start_box = None
         exclude = [tuple(v * self.scale for v in box) for box in exclude]
+        avoid = [tuple(v * self.scale for v in box) for box in avoid] if p.avoid_faces else []
         detections = None if handed else self._detect(image)
-        if detections and exclude:
-            detections = [d for d in detections if not any(centre_within(d.box, box) for box in exclude)]
-        # Faces are the target's proposals, or (avoid_faces) what the hand is not.
+        # Faces are the target's proposals, or (avoid_faces) what the hand is not: only the
+        # proposals keep out of the other targets' boxes.
         head_faces = detections if p.proposals == 'faces' else None
+        if head_faces and exclude:
+            head_faces = detections = [d for d in head_faces if not any(centre_within(d.box, box) for box in exclude)]
         states = np.array([FACE_ON_HEAD.state(d.box) for d in head_faces]) if head_faces else None
-        region = self.initial_region(motion, skin, exclude)
+        cleared = [*exclude, *(_face_and_neck(box) for box in avoid)]
+        region = self.initial_region(motion, skin, cleared)
         skin_region = skin_starts = None
         if p.proposals == 'skin' and skin is not None:
-            skin_region = region if p.init_region == 'skin' else self.initial_region(None, skin, exclude)
+            skin_region = region if p.init_region == 'skin' else self.initial_region(None, skin, cleared)
             skin_starts = self.initial_states(skin_region)
             states = np.array(skin_starts) if skin_starts else None
         appearance = self._appearance_term(bins)
@@ -652,12 +659,8 @@ class TargetTracker:
         if estimate is None:
             return TargetResult(self.status, None, motion_set_aside=set_aside, detections=shown)
         working_state = estimate.state
-        on_face = (
-            p.avoid_faces
-            and self.face_misses == 0
-            and self.last_face is not None
-            and centre_within(estimate.box, _face_and_neck(self.last_face))
-        )
+        own_face = [self.last_face] if self.face_misses == 0 and self.last_face is not None else []
+        on_face = p.avoid_faces and any(centre_within(estimate.box, _face_and_neck(f)) for f in own_face + avoid)
         if face is not None and self.status == TRACKING:
             self._anchor_on_face(face, working_state, given_box)
             self.last_face = face.box
@@ -956,17 +959,18 @@ class TargetTracker:
 
 
 def _face_on(detections: list[Detection], state: np.ndarray) -> Detection | None:
-    """The first of ``detections`` that is the face of the head at ``state`` (working pixels):
+    """The nearest of ``detections`` that is the face of the head at ``state`` (working pixels):
     within ``FACE_MATCH_DISTANCE`` face widths of where the contour puts the face, of about
-    its size (within a factor ``FACE_MATCH_SIZE``)."""
+    its size (within a factor ``FACE_MATCH_SIZE``). The nearest, not the likeliest: a face
+    passing close by (someone walking in front) is not this head's."""
     x, y, size, height = FACE_ON_HEAD.box(state)
-    centre_x, centre_y = x + size / 2, y + height / 2
+    centre = np.array([x + size / 2, y + height / 2])
+    best, best_distance = None, FACE_MATCH_DISTANCE * size
     for detection in detections:
-        x, y, w, h = detection.box
-        near = np.hypot(x + w / 2 - centre_x, y + h / 2 - centre_y) <= FACE_MATCH_DISTANCE * size
-        if near and 1 / FACE_MATCH_SIZE <= w / size <= FACE_MATCH_SIZE:
-            return detection
-    return None
+        distance = float(np.hypot(*(np.array(box_centre(detection.box)) - centre)))
+        if distance <= best_distance and 1 / FACE_MATCH_SIZE <= detection.box[2] / size <= FACE_MATCH_SIZE:
+            best, best_distance = detection, distance
+    return best
 
 
 def _face_and_neck(face: tuple[float, float, float, float]) -> tuple[float, float, float, float]:

@@ -74,7 +74,7 @@ def test_bars_are_applied_to_the_measured_figures() -> None:
         'particle filter step, 500 particles (ms) <= 1': (0.8, 1.0, True),
         'head pipeline (ms) <= CSRT / 5': (4.0, 5.0, True),
         'hand pipeline (ms) <= 3 KCF': (7.0, 6.0, False),
-        'person pipeline, head and one hand (ms) <= 2.5 head pipeline': (9.0, 10.0, True),
+        'person pipeline, head and two hands (ms) <= 2.5 head pipeline': (9.0, 10.0, True),
         'a: mean precision at 20 px >= CamShift, MIL, KCF': (0.9, 0.95, False),
         'b: mean precision at 20 px >= CamShift, MIL, KCF': (0.9, 0.9, True),
         'trellis: mean precision at 20 px >= CamShift, MIL, KCF': (0.7, 0.0, True),

@@ -245,8 +245,8 @@ def test_two_people_each_keep_their_head_and_id(tmp_path) -> None:
             followed.setdefault((r['frame'], r['kind']), []).append(
                 tuple(float(r[k]) for k in ('box_x', 'box_y', 'box_w', 'box_h'))
             )
-    for boxes in followed.values():
-        assert not any(centre_within(a, b, SAME_REGION) for a, b in itertools.permutations(boxes, 2))
+    for (_, kind), boxes in followed.items():
+        assert not any(centre_within(a, b, SAME_REGION[kind]) for a, b in itertools.permutations(boxes, 2))
 
 
 def test_the_occupancy_rule_keeps_the_target_taken_up_first() -> None:

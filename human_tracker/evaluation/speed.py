@@ -59,10 +59,10 @@ def stage_timings(
     default working width; ``pipeline_full_size``: the same at full size) and
     ``hand_pipeline`` (conversion + background + skin + the hand tracker: colour edges and
     the colour term, at the working width) and ``person_pipeline`` (the same cues, a head's
-    tracker from the first box and a hand's starting by itself,
-    :mod:`~human_tracker.vision.people`), all on the same frames. The pipelines' figures are
-    means, not medians: the face detector runs on one frame in ``detect_every``, and a median
-    would leave it out.
+    tracker from the first box and two hands' starting by themselves, the second while the
+    first is followed, :mod:`~human_tracker.vision.people`), all on the same frames. The
+    pipelines' figures are means, not medians: the face detector runs on one frame in
+    ``detect_every``, and a median would leave it out.
     """
     if scale != 1.0:
         frames = [cv2.resize(f, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA) for f in frames]
@@ -92,7 +92,7 @@ def stage_timings(
     hand = TargetTracker(open_hand(), filter_parameters, parameters_for('hand'))
     hand.initialise_from_box(boxes[0])
     hand_width = hand.parameters.working_width
-    person = PersonTracker(('head', 'hand'), filter_parameters)
+    person = PersonTracker(('head', 'hand', 'hand'), filter_parameters)
     person.initialise_from_box(boxes[0], 'head')
     for name, process in (('hand_pipeline', hand.process), ('person_pipeline', person.process)):
         results[name] = _ms_per_frame(_skin_pipeline(messages, process, segmenter, hand_width), count, np.mean)

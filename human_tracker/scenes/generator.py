@@ -274,13 +274,14 @@ def _draw_person(
         )
 
 
-# A face's features in the head's frame (one unit wide, centred, y down): brows (from, to),
-# eyes (centre, half-axes), the nose's ridge (from, to) and nostrils (centre, half-axes), the
-# mouth (centre, half-axes). Shaded like this, a face of 30 px and up is a face to dlib's HOG
-# detector; two dots and a mouth are not.
+# The hair of a head with a face: the head's ellipse above the brows, in the head's frame (one
+# unit wide, centred, y down).
 _CAP_ANGLES = np.linspace(0.0, 2.0 * np.pi, 73)
 _HAIRLINE_CAP = np.column_stack([_HEAD_HALF_WIDTH * np.cos(_CAP_ANGLES), _HEAD_HALF_HEIGHT * np.sin(_CAP_ANGLES)])
 _HAIRLINE_CAP = _HAIRLINE_CAP[_HAIRLINE_CAP[:, 1] < -0.24]
+# A face's features in that frame: brows (from, to), eyes (centre, half-axes), the nose's ridge
+# (from, to) and nostrils (centre, half-axes), the mouth (centre, half-axes). Drawn like this, a
+# face of 30 px and up is a face to dlib's HOG detector; two dots and a mouth are not.
 _BROWS = (((-0.3, -0.17), (-0.07, -0.19)), ((0.07, -0.19), (0.3, -0.17)))
 _EYES = (((-0.19, -0.07), (0.1, 0.045)), ((0.19, -0.07), (0.1, 0.045)))
 _NOSE = ((-0.03, -0.02), (-0.05, 0.17))

@@ -17,7 +17,7 @@ kind hold (``exclude``): it starts no filter, hypothesis or face proposal inside
 second person's head is looked for away from the first, a second hand away from the first.
 That keeps new filters apart; one that drifts onto a region another holds is caught by the
 occupancy rule: when the centre of one target lies in the central half of the box of another
-of its kind, the target taken up later is marked LOST (its id retired) and looks again
+head (the whole box of another hand), the target taken up later is marked LOST (its id retired) and looks again
 elsewhere. The central half, not the whole box: a person standing behind another overlaps
 the other's box, and marking them LOST gave their place to the one in front
 (people_crossing, person_1/head 0.67 -> 1.00). Trackers wait their turn: a second hand runs
@@ -55,9 +55,11 @@ TARGETS = (*KINDS, 'person')
 # this many frames: a head that slid onto the raised arm (hand2) would send the hand to the face.
 FRESH_FACE_FRAMES = 4
 
-# Two targets of a kind are on one region when the centre of one lies in the central half of
-# the other's box: two heads side by side, one behind the other, overlap more than that.
-SAME_REGION = 0.5
+# Two targets of a kind are on one region when the centre of one lies in this central share of
+# the other's box: for heads its half (a head behind another overlaps its box more than
+# that); for hands the whole box (two hands that close are one: with the half, hand2 with two
+# hands 0.48 -> 0.41).
+SAME_REGION = {'head': 0.5, 'hand': 1.0}
 
 MAX_HANDS = 2
 """The most hands a person has."""
@@ -262,7 +264,10 @@ class PersonTracker:
                     other.kind == slot.kind
                     and other.box is not None
                     and other.id < slot.id
-                    and (centre_within(box, other.box, SAME_REGION) or centre_within(other.box, box, SAME_REGION))
+                    and (
+                        centre_within(box, other.box, SAME_REGION[slot.kind])
+                        or centre_within(other.box, box, SAME_REGION[slot.kind])
+                    )
                     for other, _ in ran
                 )
             )

@@ -46,6 +46,12 @@ from human_tracker.vision.templates import ContourTemplate, fit_state, head_and_
 from human_tracker.vision.tracker import box_from_state
 
 
+def _pixel(position, camera_matrix: np.ndarray) -> tuple[float, float]:
+    """Where a position in the optical frame (metres) projects in the image, pixels."""
+    k = camera_matrix
+    return k[0, 0] * position.x / position.z + k[0, 2], k[1, 1] * position.y / position.z + k[1, 2]
+
+
 def _boxes(collector, frames, template: ContourTemplate | None = None) -> list:
     """The reference boxes of the published contours, by frame (None where none was published)."""
     template = template or head_and_shoulders()
@@ -269,8 +275,7 @@ def test_a_person_pipeline_names_each_target_on_targets(tmp_path) -> None:
             assert person == 'person_1' and int(ident) > 0
             ids[kind].add(int(ident))
             if kind == 'hand':
-                p = odometry.pose.pose.position
-                centre = (k[0, 0] * p.x / p.z + k[0, 2], k[1, 1] * p.y / p.z + k[1, 2])
+                centre = _pixel(odometry.pose.pose.position, k)
         hand.append(centre)
     assert ids['hand'] and not ids['head'] & ids['hand']
     listed = collector.diagnostics['/tracker_node']['targets']  # the last frame's
@@ -308,8 +313,7 @@ def test_two_people_over_dds_are_the_offline_commands(tmp_path) -> None:
             person, name = odometry.child_frame_id.split('/')
             kind, ident = name.split('_')
             if kind == 'head':
-                p = odometry.pose.pose.position
-                seen[person] = (k[0, 0] * p.x / p.z + k[0, 2], k[1, 1] * p.y / p.z + k[1, 2])
+                seen[person] = _pixel(odometry.pose.pose.position, k)
                 ids[person].add(int(ident))
         for person in heads:
             heads[person].append(seen.get(person))
@@ -320,7 +324,7 @@ def test_two_people_over_dds_are_the_offline_commands(tmp_path) -> None:
     for person, slot in (('person_1', 'head'), ('person_2', 'person_2/head')):
         # The pose is the centre of the contour's head box, not of the box reported (placed by the face).
         offline = [
-            box_centre(box_from_state(np.array([float(r[k]) for k in ('x', 'y', 'scale', 'theta')]), template))
+            box_centre(box_from_state(np.array([float(r[c]) for c in ('x', 'y', 'scale', 'theta')]), template))
             if r['status'] == 'TRACKING'
             else None
             for r in rows

@@ -17,8 +17,8 @@ kind hold (``exclude``): it starts no filter, hypothesis or face proposal inside
 second person's head is looked for away from the first, a second hand away from the first.
 That keeps new filters apart; one that drifts onto a region another holds is caught by the
 occupancy rule: when the centre of one target lies in the central half of the box of another
-head (the whole box of another hand), the target taken up later is marked LOST (its id retired) and looks again
-elsewhere. The central half, not the whole box: a person standing behind another overlaps
+head (the whole box of another hand), the target taken up later is marked LOST (its id
+retired) and looks again elsewhere. The central half, not the whole box: a person standing behind another overlaps
 the other's box, and marking them LOST gave their place to the one in front
 (people_crossing, person_1/head 0.67 -> 1.00). Trackers wait their turn: a second hand runs
 only while the first is followed, the next person's trackers only while the person before
@@ -255,7 +255,8 @@ class PersonTracker:
 
     def _keep_apart(self, ran: list[tuple[Slot, TargetResult]]) -> list[tuple[Slot, TargetResult]]:
         """The occupancy rule: of two followed targets of a kind where one's centre lies inside
-        the other's box, the one taken up later (the higher id) is marked LOST."""
+        the other's box (its central ``SAME_REGION`` share), the one taken up later (the higher
+        id) is marked LOST."""
         kept = []
         for slot, result in ran:
             box = slot.box

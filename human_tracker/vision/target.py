@@ -470,7 +470,7 @@ class TargetTracker:
     ) -> np.ndarray | None:
         """The mask X_0 is computed from (``init_region``), or None without the cues it needs;
         zero on the face to avoid (``avoid_faces``) and on ``exclude`` (boxes x, y, w, h, working
-        pixels: other targets')."""
+        pixels: other targets', other people's faces)."""
         if self.parameters.init_region == 'skin' and skin is not None:
             region = skin
         else:

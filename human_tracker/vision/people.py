@@ -259,18 +259,13 @@ class PersonTracker:
         id) is marked LOST."""
         kept = []
         for slot, result in ran:
-            box = slot.box
-            taken = box is not None and (
-                any(
-                    other.kind == slot.kind
-                    and other.box is not None
-                    and other.id < slot.id
-                    and (
-                        centre_within(box, other.box, SAME_REGION[slot.kind])
-                        or centre_within(other.box, box, SAME_REGION[slot.kind])
-                    )
-                    for other, _ in ran
-                )
+            box, share = slot.box, SAME_REGION[slot.kind]
+            taken = box is not None and any(
+                other.kind == slot.kind
+                and other.box is not None
+                and other.id < slot.id
+                and (centre_within(box, other.box, share) or centre_within(other.box, box, share))
+                for other, _ in ran
             )
             if taken:
                 slot.tracker.mark_lost()

@@ -15,7 +15,7 @@ from human_tracker.vision.background import BackgroundModel
 from human_tracker.vision.faces import FACE_ON_HEAD, Detection
 from human_tracker.vision.optical_flow import OpticalFlow
 from human_tracker.vision.resolution import to_working, working_scale
-from human_tracker.vision.target import FACELESS_FRAMES, TargetParameters, TargetTracker
+from human_tracker.vision.target import FACELESS_FRAMES, TargetParameters, TargetResult, TargetTracker
 from human_tracker.vision.templates import head_and_shoulders
 from human_tracker.vision.tracker import TrackerParameters, state_from_box
 
@@ -155,9 +155,9 @@ def test_reports_the_target_lost_while_the_person_is_away() -> None:
     assert track('head_stop_and_go', 'background', lost_motion_support=0.05).precision(slice(75, 105)) >= 0.9
 
 
-def test_the_search_elsewhere_is_skipped_only_when_no_hypothesis_could_win() -> None:
-    """While tracking, a hypothesis must beat the estimate's motion support by switch_margin, and
-    no support exceeds 1: the search runs on every frame where that is still possible, and only there."""
+def _record_searches(parameters: TargetParameters) -> list[tuple[TargetResult, bool, bool]]:
+    """Each frame of head_basic tracked from its box: the result, whether the target was
+    tracked before the frame, and whether the search for a hypothesis elsewhere ran."""
     searched: list[bool] = []
 
     class Recording(TargetTracker):
@@ -165,25 +165,58 @@ def test_the_search_elsewhere_is_skipped_only_when_no_hypothesis_could_win() -> 
             searched[-1] = True
             return super().hypothesis(*args, **kwargs)
 
-    margin = 0.2
-    tracker = Recording(head_and_shoulders(), TrackerParameters(), TargetParameters(switch_margin=margin))
+    tracker = Recording(head_and_shoulders(), TrackerParameters(), parameters)
     background = BackgroundModel()
-    skipped = 0
+    frames = []
     for frame, image in _frames('head_basic'):
         if not tracker.filter.initialised:
             tracker.initialise_from_box(frame.ground_truth)
         was_tracking = tracker.status == 'TRACKING'
         searched.append(False)
         working = to_working(to_mono8(image), tracker.parameters.working_width)
-        result = tracker.process(image, background.apply(working))
+        frames.append((tracker.process(image, background.apply(working)), was_tracking, searched[-1]))
+    return frames
+
+
+def test_the_search_elsewhere_is_skipped_only_when_no_hypothesis_could_win() -> None:
+    """While tracking, a hypothesis must beat the estimate's motion support by switch_margin, and
+    no support exceeds 1: the search runs on every frame where that is still possible, and only
+    there (the paper's likelihood: no appearance, so a start box's target is not kept by it)."""
+    margin = 0.2
+    skipped = 0
+    frames = _record_searches(TargetParameters(switch_margin=margin, likelihood='paper'))
+    for result, was_tracking, searched in frames:
         if result.initialised or not was_tracking:
-            assert searched[-1]
+            assert searched
             continue
         out_of_reach = result.estimate.motion_support + margin > 1.0
-        assert searched[-1] != out_of_reach
+        assert searched != out_of_reach
         skipped += out_of_reach
-    print(f'search skipped on {skipped} of {len(searched)} frames')
-    assert 0 < skipped < len(searched)
+    print(f'search skipped on {skipped} of {len(frames)} frames')
+    assert 0 < skipped < len(frames)
+
+
+def test_no_search_elsewhere_while_the_start_box_target_holds() -> None:
+    """A start box names the target: while its edges and colours hold, no hypothesis may take
+    over, so none is searched for."""
+    parameters = TargetParameters(switch_margin=0.2)
+    holding = 0
+    frames = _record_searches(parameters)
+    for result, was_tracking, searched in frames:
+        if result.initialised or not was_tracking:
+            continue
+        estimate = result.estimate
+        holds = (
+            estimate.confidence >= parameters.lost_confidence
+            and estimate.appearance_distance <= parameters.lost_appearance_distance
+        )
+        if holds:
+            assert not searched
+        elif estimate.motion_support + parameters.switch_margin <= 1.0:
+            assert searched
+        holding += holds
+    print(f'the target held on {holding} of {len(frames)} frames')
+    assert holding > len(frames) // 2
 
 
 def test_a_mask_over_most_of_the_frame_is_set_aside() -> None:

@@ -889,11 +889,20 @@ class TargetTracker:
         return partial(self.appearance.squared_distances, bins)
 
     def _may_switch(self, estimate: TrackEstimate | None) -> bool:
-        """Whether a hypothesis could start the filter: not while the estimate's motion support is
-        within ``switch_margin`` of 1, since no hypothesis's support exceeds 1 (the search is skipped)."""
+        """Whether a hypothesis could start the filter (when not, the search is skipped): not
+        while the estimate's motion support is within ``switch_margin`` of 1, since no
+        hypothesis's support exceeds 1, nor while the target a start box named holds."""
         if self.status != TRACKING or estimate is None:
             return True
-        return estimate.motion_support + self.parameters.switch_margin <= 1.0
+        p = self.parameters
+        holds = estimate.confidence >= p.lost_confidence and estimate.appearance_distance <= p.lost_appearance_distance
+        if self.started_from_box and self.appearance is not None and holds:
+            # A start box names the target: while its edges and colours hold, a region moving
+            # more elsewhere (someone walking past, a waving hand) does not take over a still
+            # person. people_crossing, the still head's box: 0.02 -> 1.00; no real sequence
+            # changed (none switched from a box while its target held).
+            return False
+        return estimate.motion_support + p.switch_margin <= 1.0
 
     def _should_start(self, found: Hypothesis, estimate: TrackEstimate | None, moving: bool) -> bool:
         """Start on a hypothesis when there is no target, or when it is clearly better elsewhere
@@ -905,13 +914,6 @@ class TargetTracker:
             return False  # it would be a weak frame at once
         if self.status != TRACKING or estimate is None:
             return found.confidence >= p.init_confidence
-        holds = estimate.confidence >= p.lost_confidence and estimate.appearance_distance <= p.lost_appearance_distance
-        if self.started_from_box and self.appearance is not None and holds:
-            # A start box names the target: while its edges and colours hold, a region moving
-            # more elsewhere (someone walking past, a waving hand) does not take over a still
-            # person. people_crossing, the still head's box: 0.02 -> 1.00; no real sequence
-            # changed (none switched from a box while its target held).
-            return False
         far = np.hypot(*(found.state[:2] - estimate.state[:2])) > 0.5 * estimate.state[2]
         fits = found.confidence >= p.lost_confidence
         return far and fits and found.motion_support >= estimate.motion_support + p.switch_margin

@@ -178,15 +178,17 @@ def _contour_costs(
     reach = int(np.ceil(search_halfwidth))
     miss = 2.0 * miss_penalty if use_motion else miss_penalty
     tolerance_degrees = np.degrees(orientation_tolerance)
-    # A rotation by θ turns every normal by θ: one arctan2 per template point, not per particle.
-    template_degrees = np.degrees(np.arctan2(normals[:, 1], normals[:, 0]))
+    # A rotation by θ turns every normal by θ: one arctan2 per template point, not per particle,
+    # and the sum of two orientations in [0, 180) brought back into it by one comparison per
+    # point (a float modulo per point and particle took 13 % of the filter's step).
+    template_degrees = np.degrees(np.arctan2(normals[:, 1], normals[:, 0])) % 180.0
     for i in numba.prange(particles.shape[0]):
         x = particles[i, 0]
         y = particles[i, 1]
         scale = particles[i, 2]
         c = np.cos(particles[i, 3])
         s = np.sin(particles[i, 3])
-        turn_degrees = np.degrees(particles[i, 3])
+        turn_degrees = np.degrees(particles[i, 3]) % 180.0
         total = 0.0
         hits = 0
         moving_hits = 0
@@ -195,7 +197,9 @@ def _contour_costs(
             # Modulo 180 once per point, so that each probe only compares: edge labels are
             # orientations in [0, 180), and two within the tolerance of each other either way
             # round the half-turn are |a - b| <= t or >= 180 - t apart.
-            normal_degrees = (template_degrees[j] + turn_degrees) % 180.0
+            normal_degrees = template_degrees[j] + turn_degrees
+            if normal_degrees >= 180.0:
+                normal_degrees -= 180.0
             found = -1.0
             zu = 0
             zv = 0

@@ -290,3 +290,17 @@ def test_a_person_started_from_a_box_is_kept_while_another_walks_past(tmp_path) 
         truth = frame.ground_truths['person_1/head']
         assert box is not None and np.hypot(*np.subtract(box_centre(box), box_centre(truth))) <= 20.0
     assert summary['tracks']['person_1/head']['precision_20px'] >= 0.75
+
+
+def test_a_persons_hands_reduce_the_frame_once() -> None:
+    """Trackers with the same working width and edge settings share one working frame (the
+    same arrays as computing it alone); the head, which fits grey edges, has its own."""
+    image = _frames('people_crossing', 1)[0][1]
+    person = PersonTracker(('head', 'hand', 'hand'))
+    head, first, second = person.trackers
+    shared: dict = {}
+    frames = [tracker.working_frame(image, shared) for tracker in (head, first, second)]
+    assert frames[2] is frames[1] and frames[1] is not frames[0] and len(shared) == 2
+    alone = TargetTracker(open_hand(), parameters=parameters_for('hand')).working_frame(image)
+    assert all(np.array_equal(a, b) for a, b in zip(alone[:3], frames[2][:3], strict=True))
+    assert frames[2].bins is None and frames[0].edges.shape == frames[2].edges.shape

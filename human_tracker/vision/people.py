@@ -41,7 +41,15 @@ import numpy as np
 
 from human_tracker.vision.boxes import box_centre, centre_within
 from human_tracker.vision.faces import FACE_ON_HEAD
-from human_tracker.vision.target import LOST, TRACKING, TargetParameters, TargetResult, TargetTracker, parameters_for
+from human_tracker.vision.target import (
+    LOST,
+    TRACKING,
+    TargetParameters,
+    TargetResult,
+    TargetTracker,
+    WorkingFrame,
+    parameters_for,
+)
 from human_tracker.vision.templates import ContourTemplate, make_template
 from human_tracker.vision.tracker import TrackerParameters
 
@@ -210,6 +218,8 @@ class PersonTracker:
         """
         ran: list[tuple[Slot, TargetResult]] = []
         faces: dict[int, tuple[float, float, float, float] | None] = {}  # by person
+        # Trackers with the same working settings (the hands; the heads) reduce the frame once.
+        shared: dict[tuple, WorkingFrame] = {}
         # Heads first: a hand keeps off the faces they find, every person's.
         for slot in sorted(self.slots, key=lambda o: o.kind != 'head'):
             if not self._runs(slot):
@@ -220,12 +230,13 @@ class PersonTracker:
             was_tracking = tracker.status == TRACKING
             exclude = [o.box for o in self.slots if o is not slot and o.kind == slot.kind and o.box is not None]
             if slot.kind == 'head':
-                result = tracker.process(image, motion, skin if len(self.kinds) == 1 else None, exclude=exclude)
+                single = skin if len(self.kinds) == 1 else None
+                result = tracker.process(image, motion, single, exclude=exclude, shared=shared)
                 faces[slot.person] = self._face_of(tracker, result)
             else:
                 others = [f for person, f in faces.items() if person != slot.person and f is not None]
                 face = faces.get(slot.person)
-                result = tracker.process(image, motion, skin, face=face, exclude=exclude, avoid=others)
+                result = tracker.process(image, motion, skin, face=face, exclude=exclude, avoid=others, shared=shared)
             if result.tracking and (not was_tracking or slot.id == 0 or self._jumped(slot, result)):
                 self.last_id += 1
                 slot.id = self.last_id

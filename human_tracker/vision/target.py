@@ -328,6 +328,24 @@ class Hypothesis(NamedTuple):
     appearance_distance: float = 0.0
 
 
+class WorkingFrame(NamedTuple):
+    """What a tracker computes from a camera frame before its filter runs (working pixels).
+
+    Attributes:
+        image: ``(H, W)`` grey or ``(H, W, 3)`` BGR (``colour_edges``) working image, brightened
+            (``_exposure_gain``): what the edges and the face detector see.
+        grey: The working grey image before brightening (the camera-motion estimate's).
+        edges: Its :func:`~human_tracker.vision.measurement.edge_map`.
+        bins: Its colour bins (:func:`~human_tracker.vision.appearance.colour_bins`) with the
+            fused likelihood, else None.
+    """
+
+    image: np.ndarray
+    grey: np.ndarray
+    edges: np.ndarray
+    bins: np.ndarray | None
+
+
 @dataclass
 class TargetResult:
     """One frame's outcome.
@@ -542,6 +560,7 @@ class TargetTracker:
         face: tuple[float, float, float, float] | None = None,
         exclude: Sequence[Box] = (),
         avoid: Sequence[Box] = (),
+        shared: dict[tuple, WorkingFrame] | None = None,
     ) -> TargetResult:
         """Track on one frame.
 
@@ -560,6 +579,9 @@ class TargetTracker:
             avoid: With ``avoid_faces``: other people's faces on this frame (x, y, w, h,
                 camera pixels), kept off as the person's own: no start on one or its neck,
                 and a contour on one is a weak frame.
+            shared: The working frames other trackers computed from this ``image``
+                (:meth:`working_frame`), filled with this one's: trackers with the same
+                working width and edge settings compute them once.
 
         Returns:
             The outcome, its estimate in the camera's pixels.
@@ -574,15 +596,9 @@ class TargetTracker:
         handed = face is not None and p.avoid_faces
         if handed:
             self.last_face, self.face_misses = tuple(v * self.scale for v in face), 0
-        bins = colour_bins(_exposure_gain(to_working(image, p.working_width))) if p.likelihood == 'fused' else None
-        # Grey before the reduction, as the cue stages do: a colour frame and its grey version
-        # then give the same edges.
-        if image.ndim == 3 and not p.colour_edges:
-            image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-        image = to_working(image, p.working_width)
-        self._follow_camera(image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY))
-        image = _exposure_gain(image)
-        edges = edge_map(image, blur_sigma=p.edge_blur_sigma, low_threshold=p.canny_low, high_threshold=p.canny_high)
+        frame = self.working_frame(image, shared)
+        bins, image, edges = frame.bins, frame.image, frame.edges
+        self._follow_camera(frame.grey)
         likelihood_motion = likelihood_skin = None
         if motion is not None and p.motion_mode == 'mask':
             edges = np.where(motion > 0, edges, 0).astype(np.uint8)
@@ -702,6 +718,28 @@ class TargetTracker:
             # few frames).
             self.status = TRACKING
         return TargetResult(self.status, estimate, initialised, set_aside, shown)
+
+    def working_frame(self, image: np.ndarray, shared: dict[tuple, WorkingFrame] | None = None) -> WorkingFrame:
+        """The working image, colour bins and edges of a camera frame, taken from ``shared``
+        (keyed by what they depend on) when another tracker computed them, else computed and
+        put there."""
+        p = self.parameters.scaled(working_scale(image.shape[1], self.parameters.working_width))
+        key = (p.working_width, p.colour_edges, p.likelihood, p.edge_blur_sigma, p.canny_low, p.canny_high)
+        if shared is not None and key in shared:
+            return shared[key]
+        bins = colour_bins(_exposure_gain(to_working(image, p.working_width))) if p.likelihood == 'fused' else None
+        # Grey before the reduction, as the cue stages do: a colour frame and its grey version
+        # then give the same edges.
+        if image.ndim == 3 and not p.colour_edges:
+            image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+        image = to_working(image, p.working_width)
+        grey = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+        image = _exposure_gain(image)
+        edges = edge_map(image, blur_sigma=p.edge_blur_sigma, low_threshold=p.canny_low, high_threshold=p.canny_high)
+        frame = WorkingFrame(image, grey, edges, bins)
+        if shared is not None:
+            shared[key] = frame
+        return frame
 
     def _settle_on_start_box(
         self, edges: np.ndarray, motion: np.ndarray | None, skin: np.ndarray | None, bins: np.ndarray

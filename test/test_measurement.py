@@ -31,10 +31,13 @@ def test_eq2_distance_squared_or_miss_penalty() -> None:
     # Particle at (10, 10), s = 1, θ = 0. Point 0 at (10, 10) finds the edge 3 px away along
     # its normal: φ = 3² = 9. Point 1 at (10, 15) looks along y and never meets column 13: φ = ρ.
     particles = np.array([[10.0, 10.0, 1.0, 0.0]])
-    costs, matched, _, _ = contour_costs(_scene(), particles, POINTS, NORMALS, search_halfwidth=5, miss_penalty=50)
+    costs, matched, _, squared_distances, _ = contour_costs(
+        _scene(), particles, POINTS, NORMALS, search_halfwidth=5, miss_penalty=50
+    )
     assert costs[0] == pytest.approx(9 + 50) and matched[0] == 1
+    assert squared_distances[0] == pytest.approx(9)  # the matched point's d² only, not the miss
     # With δ = 3 the edge at d = 3 is no longer within d < δ: both points miss.
-    costs, matched, _, _ = contour_costs(_scene(), particles, POINTS, NORMALS, search_halfwidth=3, miss_penalty=50)
+    costs, matched, _, _, _ = contour_costs(_scene(), particles, POINTS, NORMALS, search_halfwidth=3, miss_penalty=50)
     assert costs[0] == pytest.approx(100) and matched[0] == 0
 
 
@@ -42,7 +45,7 @@ def test_eq2_searches_both_sides_and_takes_the_closest_edge() -> None:
     edges = _scene()
     edges[:, 8] = VERTICAL_EDGE  # 2 px on the other side of x = 10: closer than column 13
     particles = np.array([[10.0, 10.0, 1.0, 0.0]])
-    costs, _, _, _ = contour_costs(edges, particles, POINTS[:1], NORMALS[:1], search_halfwidth=5, miss_penalty=50)
+    costs, _, _, _, _ = contour_costs(edges, particles, POINTS[:1], NORMALS[:1], search_halfwidth=5, miss_penalty=50)
     assert costs[0] == pytest.approx(4)
 
 
@@ -58,13 +61,13 @@ def test_state_moves_the_points_scale_and_rotation_apply() -> None:
 def test_eq3_eq4_motion_weighting() -> None:
     particles = np.array([[10.0, 10.0, 1.0, 0.0]])
     motion = np.zeros((40, 40), dtype=np.uint8)
-    still, _, moving_count, _ = contour_costs(
+    still, _, moving_count, _, _ = contour_costs(
         _scene(), particles, POINTS, NORMALS, search_halfwidth=5, miss_penalty=50, motion=motion
     )
     # γ = 1 at a still edge: φ = 9 + ρ; the miss costs 2ρ: 59 + 100.
     assert still[0] == pytest.approx(9 + 50 + 100) and moving_count[0] == 0
     motion[:, 13] = 255
-    moving, _, moving_count, _ = contour_costs(
+    moving, _, moving_count, _, _ = contour_costs(
         _scene(), particles, POINTS, NORMALS, search_halfwidth=5, miss_penalty=50, motion=motion
     )
     # γ = 0 at a moving edge: φ = 9; the miss still costs 2ρ.
@@ -76,16 +79,16 @@ def test_orientation_tolerance_rejects_edges_across_the_normal() -> None:
     edges[13, :] = 1 + 90  # a horizontal edge: gradient along y
     particles = np.array([[10.0, 10.0, 1.0, 0.0]])
     point, along_x = POINTS[:1], NORMALS[:1]
-    strict, _, _, _ = contour_costs(
+    strict, _, _, _, _ = contour_costs(
         edges, particles, point, along_x, search_halfwidth=5, miss_penalty=50, orientation_tolerance=0.5
     )
     assert strict[0] == pytest.approx(50)  # the only edge runs along the normal: no match
     along_y = np.array([[0.0, 1.0]])
-    hit, _, _, _ = contour_costs(
+    hit, _, _, _, _ = contour_costs(
         edges, particles, point, along_y, search_halfwidth=5, miss_penalty=50, orientation_tolerance=0.5
     )
     assert hit[0] == pytest.approx(9)
-    paper, _, _, _ = contour_costs(edges, particles, point, along_y, search_halfwidth=5, miss_penalty=50)
+    paper, _, _, _, _ = contour_costs(edges, particles, point, along_y, search_halfwidth=5, miss_penalty=50)
     assert paper[0] == pytest.approx(9)
 
 

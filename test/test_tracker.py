@@ -57,3 +57,24 @@ def test_particle_count_changes_at_run_time() -> None:
     tracker.parameters.num_particles = 40
     tracker.step(np.zeros((100, 100), np.uint8))
     assert tracker.particles.shape == (40, 4)
+
+
+def test_fit_residual_is_the_rms_distance_to_the_edges_found() -> None:
+    """A contour on a silhouette's own outline sits within a pixel or so of its edges, one
+    shifted sideways by 4 px further off; with no edge at all the residual is δ."""
+    template = head_and_shoulders()
+    state = np.array([80.0, 70.0, 40.0, 0.0])
+    silhouette = np.zeros((160, 160), np.uint8)
+    outline = (template.points * state[2] + state[:2]).round().astype(np.int32)
+    cv2.fillPoly(silhouette, [outline], 255)
+    residuals = []
+    for shift in (0.0, 4.0):
+        tracker = ContourTracker(
+            template, TrackerParameters(num_particles=50, process_noise=(0.0,) * 4, initial_spread=(0.0,) * 4)
+        )
+        tracker.initialise(state + [shift, 0.0, 0.0, 0.0])
+        residuals.append(tracker.step(edge_map(silhouette)).fit_residual)
+    assert residuals[0] < 1.5 < 2.0 < residuals[1] < 4.0
+    tracker = ContourTracker(template, TrackerParameters(num_particles=50))
+    tracker.initialise(state)
+    assert tracker.step(np.zeros((160, 160), np.uint8)).fit_residual == tracker.parameters.search_halfwidth

@@ -51,7 +51,7 @@ from human_tracker.ros.common import LATCHED_QOS, RESULT_QOS, WORKING_WIDTH_DESC
 from human_tracker.ros.image_conversion import ImageConversionError, array_to_image, image_to_array
 from human_tracker.ros.markers import cleared_markers, target_markers
 from human_tracker.ros.stage import DEFERRED, ImageStage, ParameterSpec, spin_node, stamp_ns
-from human_tracker.vision.camera import POSITION_NOISE, metric_positions, position_covariance, undistort_pixels
+from human_tracker.vision.camera import FIT_RESIDUAL_GAIN, metric_positions, position_covariance, undistort_pixels
 from human_tracker.vision.depth import depth_image_to_metres, region_depth
 from human_tracker.vision.people import PersonTracker, TrackedTarget, kinds_of, targets_line
 from human_tracker.vision.resolution import same_frame
@@ -271,16 +271,16 @@ class TrackerNode(ImageStage):
             low=0.0,
             high=10.0,
         )
-        self.position_noise = declare(
+        self.fit_residual_gain = declare(
             self,
-            'position_noise',
-            list(POSITION_NOISE),
-            "The contour's own error in the pose's covariance, a share of target_width: "
-            'a + b (1 - confidence) across the optical axis, of the depth along it.',
+            'fit_residual_gain',
+            FIT_RESIDUAL_GAIN,
+            "The contour's own error in the pose's covariance, in RMS distances from its points to "
+            'the edges they found: across the optical axis, and the same share of the depth along it.',
+            low=0.0,
+            high=100.0,
             read_only=True,
         )
-        if len(self.position_noise) != 2 or min(self.position_noise) < 0:
-            raise ValueError(f'position_noise must be [a >= 0, b >= 0], got {self.position_noise}')
         self.image_rectified = declare(
             self,
             'image_rectified',
@@ -629,9 +629,8 @@ class TrackerNode(ImageStage):
         pose.pose.orientation.z = float(np.sin(theta / 2.0))
         pose.pose.orientation.w = float(np.cos(theta / 2.0))
         covariance = np.zeros((6, 6))
-        covariance[:3, :3] = position_covariance(
-            cloud, position, estimate.confidence, width, tuple(self.position_noise), spread
-        )
+        fit_share = self.fit_residual_gain * estimate.fit_residual / float(estimate.state[2])
+        covariance[:3, :3] = position_covariance(cloud, position, fit_share, width, spread)
         covariance[3, 3] = covariance[4, 4] = _UNKNOWN_VARIANCE
         covariance[5, 5] = estimate.covariance[3, 3]
         pose.covariance = covariance.reshape(-1).tolist()

@@ -19,7 +19,7 @@ from human_tracker.vision.templates import ContourTemplate
 
 __all__ = [
     'DEFAULT_HORIZONTAL_FOV',
-    'POSITION_NOISE',
+    'FIT_RESIDUAL_GAIN',
     'back_project',
     'default_camera_matrix',
     'metric_positions',
@@ -31,13 +31,13 @@ DEFAULT_HORIZONTAL_FOV = np.deg2rad(60.0)
 """Field of view assumed when no camera_info arrives: 60°, typical of a robot's RGB camera."""
 
 
-POSITION_NOISE = (0.05, 0.3)
-"""The fit's own error, as a share of the target's width: ``a + b (1 - confidence)`` (see
-:func:`position_covariance`). Measured on the real head sequences (5 seeds from the first box,
-every tracked frame against the annotated box, in head widths): the normalised estimation
-error squared of x, y is then 1.9-3.1 (2 expected) on david, david_colour, seated_agbani and
-interview_alberto, 7.5 on sunshade and 14 on trellis, where the contour is off the head for
-long stretches."""
+FIT_RESIDUAL_GAIN = 1.0
+"""The contour's own error in the pose covariance, in RMS fit residuals (see
+:func:`position_covariance`). At 1, over seeds 0-4 from the first box (every tracked frame,
+in the image), the normalised estimation error squared of x, y (2 expected) is 0.76-0.91 on
+the clean head bags and 3.8 on head_cluttered, 0.80-3.6 on the real head sequences
+(docs/method.md); a fixed share of the width cannot serve both: the bags' contours sit on
+their edges, real people's do not."""
 
 
 def default_camera_matrix(width: int, height: int, horizontal_fov: float = DEFAULT_HORIZONTAL_FOV) -> np.ndarray:
@@ -111,24 +111,23 @@ def undistort_pixels(pixels: np.ndarray, camera_matrix: np.ndarray, distortion: 
 def position_covariance(
     cloud: np.ndarray,
     position: np.ndarray,
-    confidence: float,
+    fit_share: float,
     target_width: float,
-    position_noise: tuple[float, float] = POSITION_NOISE,
     depth_spread: float | None = None,
 ) -> np.ndarray:
     """``(3, 3)`` covariance (m²) of a pose at ``position`` (metres, optical frame).
 
     The particle cloud's spread (``cloud``, ``(P, 3)`` metric positions) says how far the
     filter's hypotheses disagree, not how far the best contour sits from the person: after
-    resampling the cloud is a few pixels wide, while the contour's centre is off by 5-20 % of
-    the head's width on real people, more when fewer of its points find an edge. So an error
-    of ``target_width`` (metres) times ``a + b (1 - confidence)`` (``position_noise``;
-    ``confidence``: the share of contour points on an edge) is added across the optical axis,
-    and the same share of the depth along it (depth comes from the width, which is off by
-    as much), or, for a depth measured in a depth image, the readings' ``depth_spread``
-    (metres).
+    resampling the cloud is a few pixels wide. The contour's own error is added: across the
+    optical axis ``fit_share`` of ``target_width`` (metres), where ``fit_share`` is the
+    contour's fit residual (:attr:`~human_tracker.vision.tracker.TrackEstimate.fit_residual`,
+    times :data:`FIT_RESIDUAL_GAIN`) in target widths: a contour on sharp edges of the person
+    is placed to a pixel or two, one among clutter or on a blurred outline is off by about
+    its distance to the edges it found. Along the axis the same share of the depth (depth
+    comes from the width, which is off by as much), or, for a depth measured in a depth
+    image, the readings' ``depth_spread`` (metres).
     """
-    share = position_noise[0] + position_noise[1] * (1.0 - float(np.clip(confidence, 0.0, 1.0)))
-    lateral = share * target_width
-    along = share * float(position[2]) if depth_spread is None else depth_spread
+    lateral = fit_share * target_width
+    along = fit_share * float(position[2]) if depth_spread is None else depth_spread
     return np.cov(np.asarray(cloud).T) + np.diag([lateral**2, lateral**2, along**2])

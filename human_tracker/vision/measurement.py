@@ -53,6 +53,8 @@ class ContourFit(NamedTuple):
         costs: ``(P,) float64`` Σ_j φ(j) of eq. 2 (or eq. 3 with motion).
         matched: ``(P,) int64`` points whose normal met an edge within δ.
         moving: ``(P,) int64`` of those, points whose edge lies on the motion mask.
+        squared_distances: ``(P,) float64`` Σ d(j)² over the points that met an edge
+            (pixels²): how far the contour sits from the edges it found.
         skin: ``(P,) float64`` share of the contour's interior samples labelled skin, or
             None without skin labels.
     """
@@ -60,6 +62,7 @@ class ContourFit(NamedTuple):
     costs: np.ndarray
     matched: np.ndarray
     moving: np.ndarray
+    squared_distances: np.ndarray
     skin: np.ndarray | None = None
 
 
@@ -171,6 +174,7 @@ def _contour_costs(
     costs: np.ndarray,
     matched: np.ndarray,
     moving: np.ndarray,
+    squared_distances: np.ndarray,
 ) -> None:
     height, width = edges.shape
     check_orientation = orientation_tolerance < np.pi / 2
@@ -190,6 +194,7 @@ def _contour_costs(
         s = np.sin(particles[i, 3])
         turn_degrees = np.degrees(particles[i, 3]) % 180.0
         total = 0.0
+        found_total = 0.0
         hits = 0
         moving_hits = 0
         for j in range(num_points):
@@ -230,6 +235,7 @@ def _contour_costs(
                     break
             if found >= 0.0:
                 phi = found * found
+                found_total += phi
                 if use_motion:
                     if motion[zv, zu] == 0:
                         phi += miss_penalty
@@ -242,6 +248,7 @@ def _contour_costs(
         costs[i] = total
         matched[i] = hits
         moving[i] = moving_hits
+        squared_distances[i] = found_total
 
 
 def contour_costs(
@@ -271,8 +278,8 @@ def contour_costs(
             contour normal for the edge to count; π/2 accepts every edge (the paper's model).
 
     Returns:
-        The costs Σ_j φ(j) and, per particle, how many points found an edge within δ and how
-        many of those edges move (0 without a motion mask).
+        The costs Σ_j φ(j) and, per particle, how many points found an edge within δ, how
+        many of those edges move (0 without a motion mask) and the sum of their d(j)².
     """
     if search_halfwidth <= 0:
         raise ValueError(f'search_halfwidth (δ) must be > 0, got {search_halfwidth}')
@@ -286,6 +293,7 @@ def contour_costs(
     costs = np.empty(particles.shape[0], dtype=np.float64)
     matched = np.empty(particles.shape[0], dtype=np.int64)
     moving = np.empty(particles.shape[0], dtype=np.int64)
+    squared_distances = np.empty(particles.shape[0], dtype=np.float64)
     _contour_costs(
         np.ascontiguousarray(edges, dtype=np.uint8),
         np.ascontiguousarray(motion, dtype=np.uint8),
@@ -299,8 +307,9 @@ def contour_costs(
         costs,
         matched,
         moving,
+        squared_distances,
     )
-    return ContourFit(costs, matched, moving)
+    return ContourFit(costs, matched, moving, squared_distances)
 
 
 @numba.njit(cache=True, fastmath=True, nogil=True, parallel=True)

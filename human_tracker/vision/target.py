@@ -995,6 +995,7 @@ class TargetTracker:
             covariance=estimate.covariance * np.outer(factors, factors),
             box=(x * inverse, y * inverse, w * inverse, h * inverse),
             contour=estimate.contour * inverse,
+            fit_residual=estimate.fit_residual * inverse,
         )
 
 

@@ -166,6 +166,10 @@ class TrackEstimate:
         skin_support: Weighted share of the contour's interior samples on skin (0 without skin).
         appearance_distance: Bhattacharyya distance D of the target's region from its
             reference, sqrt of the weighted mean D² (0 without an appearance model).
+        fit_residual: Root mean square distance, pixels, from the contour's points to the
+            edges they found along their normals (eq. 2's d(j)), over the weighted particles;
+            δ when no point found one. How far the contour sits from the person: the pose's
+            covariance grows with it.
     """
 
     state: np.ndarray
@@ -177,6 +181,7 @@ class TrackEstimate:
     contour: np.ndarray
     skin_support: float = 0.0
     appearance_distance: float = 0.0
+    fit_residual: float = 0.0
 
 
 # An appearance term: the squared Bhattacharyya distance D² of each state ``(P, 4)``, ``(P,)``.
@@ -341,6 +346,7 @@ class ContourTracker:
             motion_support=float(weights @ fit.moving) / self.template.num_points,
             skin_support=0.0 if fit.skin is None else float(weights @ fit.skin),
             appearance_distance=0.0 if distances is None else float(np.sqrt(weights @ distances)),
+            fit_residual=_fit_residual(fit, weights, params.search_halfwidth),
             effective_sample_size=effective_sample_size(weights),
             box=box_from_state(state, self.template),
             contour=transform_points(self.template.points, state),
@@ -394,3 +400,11 @@ class ContourTracker:
         keep = self.rng.integers(0, self.particles.shape[0], size=count)
         self.particles = self.particles[keep]
         self.previous = self.previous[keep]
+
+
+def _fit_residual(fit: ContourFit, weights: np.ndarray, search_halfwidth: float) -> float:
+    """:attr:`TrackEstimate.fit_residual` of ``fit`` over the particles' ``weights``."""
+    found = float(weights @ fit.matched)
+    if found < 1.0:
+        return float(search_halfwidth)
+    return float(np.sqrt(float(weights @ fit.squared_distances) / found))

@@ -609,7 +609,8 @@ class TargetTracker:
             edges = np.where(near_skin > 0, edges, 0).astype(np.uint8)
         elif skin is not None and p.colour_mode == 'weighted':
             likelihood_skin = skin
-        if self.start_box is not None and bins is not None:
+        settled = self.start_box is not None and bins is not None
+        if settled:
             # With the paper's likelihood the box fills the reference region as given: the grid
             # fit cost `david` 0.83 -> 0.63 there, while the fused likelihood gains from it.
             self._settle_on_start_box(edges, likelihood_motion, likelihood_skin, bins)
@@ -675,6 +676,11 @@ class TargetTracker:
         if estimate is None:
             return TargetResult(self.status, None, motion_set_aside=set_aside, detections=shown)
         working_state = estimate.state
+        if settled and not initialised:
+            # The box sits on the person where the start frame's estimate puts the contour: the
+            # grid's best fit is one sample of that frame's edges (on head_cluttered, 8 px below
+            # the head for the whole track).
+            self.box_relation = BoxRelation.of(given_box, working_state)
         own_face = [self.last_face] if self.face_misses == 0 and self.last_face is not None else []
         on_face = p.avoid_faces and any(centre_within(estimate.box, _face_and_neck(f)) for f in own_face + avoid)
         if face is not None and self.status == TRACKING:
@@ -750,8 +756,9 @@ class TargetTracker:
         lower than the head-and-shoulders outline around it): the contour is fitted on a grid
         of scales and offsets around the box (``START_SCALES``, ``START_OFFSETS``, in units of
         the box's own scale), the best fit (lowest Σ φ, eqs. 2-4) starts the filter, and the
-        box's place on that contour is kept for the boxes reported from then on and as the
-        region whose colours (``bins``) are the target's appearance.
+        box's place on that contour is the region whose colours (``bins``) are the target's
+        appearance. The boxes reported from then on sit on the contour as the box sits on this
+        frame's estimate (:meth:`process`).
         """
         assert self.start_box is not None
         fp = self.filter.parameters

@@ -33,10 +33,8 @@ DEFAULT_HORIZONTAL_FOV = np.deg2rad(60.0)
 
 FIT_RESIDUAL_GAIN = 1.0
 """The contour's own error in the pose covariance, in RMS fit residuals (see
-:func:`position_covariance`). At 1, over seeds 0-4 from the first box (every tracked frame,
-in the image), the normalised estimation error squared of x, y (2 expected) is 0.76-0.91 on
-the clean head bags and 3.8 on head_cluttered, 0.80-3.6 on the real head sequences
-(docs/method.md)."""
+:func:`position_covariance`); the normalised estimation error it gives on the bags and the
+real heads is in docs/method.md."""
 
 
 def default_camera_matrix(width: int, height: int, horizontal_fov: float = DEFAULT_HORIZONTAL_FOV) -> np.ndarray:
@@ -121,9 +119,9 @@ def position_covariance(
     resampling the cloud is a few pixels wide. The contour's own error is added: across the
     optical axis ``fit_share`` of ``target_width`` (metres), where ``fit_share`` is the
     contour's fit residual (:attr:`~human_tracker.vision.tracker.TrackEstimate.fit_residual`)
-    in target widths, times :data:`FIT_RESIDUAL_GAIN` or the node's gain: a contour on sharp edges of the person
-    is placed to a pixel or two, one among clutter or on a blurred outline is off by about
-    its distance to the edges it found. Along the axis the same share of the depth (depth
+    in target widths, times :data:`FIT_RESIDUAL_GAIN` or the node's gain: a contour on sharp
+    edges of the person is placed to a pixel or two, one among clutter or on a blurred outline
+    is off by about its distance to the edges it found. Along the axis the same share of the depth (depth
     comes from the width, which is off by as much), or, for a depth measured in a depth
     image, the readings' ``depth_spread`` (metres).
     """

@@ -323,13 +323,15 @@ def test_two_people_over_dds_are_the_offline_commands(tmp_path) -> None:
     template = head_and_shoulders()
     for person, slot in (('person_1', 'head'), ('person_2', 'person_2/head')):
         # The pose is the centre of the contour's head box, not of the box reported (placed by the face).
-        offline = [
-            box_centre(box_from_state(np.array([float(r[c]) for c in ('x', 'y', 'scale', 'theta')]), template))
-            if r['status'] == 'TRACKING'
-            else None
+        # A person's rows begin on the frame its slot opens.
+        by_frame = {
+            int(r['frame']): box_centre(
+                box_from_state(np.array([float(r[c]) for c in ('x', 'y', 'scale', 'theta')]), template)
+            )
             for r in rows
-            if r['target'] == slot
-        ]
+            if r['target'] == slot and r['status'] == 'TRACKING'
+        }
+        offline = [by_frame.get(index) for index in range(len(frames))]
         assert [c is not None for c in heads[person]] == [c is not None for c in offline]
         near = in_view = 0
         for centre, expected, frame in zip(heads[person], offline, frames, strict=True):

@@ -36,10 +36,13 @@ class Detection(NamedTuple):
     Attributes:
         box: ``(x, y, w, h)`` pixels of the image given to the detector.
         score: The detector's confidence (SVM margin; > 0 is a face).
+        carried: ``(dx, dy)`` pixels the box was moved from where the detector found it: a
+            face found on an earlier frame, carried to where it is expected on this one.
     """
 
     box: tuple[float, float, float, float]
     score: float
+    carried: tuple[float, float] = (0.0, 0.0)
 
 
 def face_detector_available() -> bool:
@@ -109,8 +112,9 @@ class FaceDetector:
         interpolation = cv2.INTER_LINEAR if zoom > 1.0 else cv2.INTER_AREA
         crop = cv2.resize(crop, None, fx=zoom, fy=zoom, interpolation=interpolation)
         return [
-            Detection((left + bx / zoom, top + by / zoom, bw / zoom, bh / zoom), score)
-            for (bx, by, bw, bh), score in self.detect(crop, upsample=0)
+            Detection((left + bx / zoom, top + by / zoom, bw / zoom, bh / zoom), found.score)
+            for found in self.detect(crop, upsample=0)
+            for bx, by, bw, bh in [found.box]
         ]
 
     def localise(self, image: np.ndarray, face: tuple[float, float, float, float], zooms: int = 5) -> tuple[float, ...]:

@@ -35,9 +35,6 @@ filter (the template's fit tells the hand from the face and skin-coloured things
 
 from __future__ import annotations
 
-import contextlib
-import os
-import threading
 from collections.abc import Callable, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
@@ -104,9 +101,6 @@ PATIENT_SEARCHES = 8
 # Frames without its face after which a head is weak when motion cannot support it: counted
 # in frames, not detector runs, which thin out when no face is found (PATIENT_SEARCHES).
 FACELESS_FRAMES = 30
-
-# The niceness of the detector's thread (``detector_thread``): behind the frames' path.
-DETECTOR_NICENESS = 10
 
 WAITING = 'WAITING'
 TRACKING = 'TRACKING'
@@ -364,13 +358,6 @@ class WorkingFrame(NamedTuple):
     bins: np.ndarray | None
 
 
-def _yield_to_frames() -> None:
-    """Lower the calling thread's scheduling priority (Linux: per thread), so the detector's
-    thread takes the cores the frames' path leaves idle."""
-    with contextlib.suppress(AttributeError, OSError):
-        os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), DETECTOR_NICENESS)
-
-
 class _Search(NamedTuple):
     """One run of the face detector: the grey working frame it looks at, and the run."""
 
@@ -451,7 +438,7 @@ class TargetTracker:
         if self._wants_faces and face_detector_available():
             self.detector = FaceDetector()
             if self.parameters.detector_thread:
-                self._worker = ThreadPoolExecutor(1, 'face_detector', _yield_to_frames)
+                self._worker = ThreadPoolExecutor(1, 'face_detector')
 
     @property
     def _wants_faces(self) -> bool:

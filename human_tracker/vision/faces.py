@@ -112,9 +112,8 @@ class FaceDetector:
         interpolation = cv2.INTER_LINEAR if zoom > 1.0 else cv2.INTER_AREA
         crop = cv2.resize(crop, None, fx=zoom, fy=zoom, interpolation=interpolation)
         return [
-            Detection((left + bx / zoom, top + by / zoom, bw / zoom, bh / zoom), found.score)
-            for found in self.detect(crop, upsample=0)
-            for bx, by, bw, bh in [found.box]
+            Detection((left + bx / zoom, top + by / zoom, bw / zoom, bh / zoom), score)
+            for (bx, by, bw, bh), score, _ in self.detect(crop, upsample=0)
         ]
 
     def localise(self, image: np.ndarray, face: tuple[float, float, float, float], zooms: int = 5) -> tuple[float, ...]:

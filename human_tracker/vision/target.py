@@ -46,7 +46,7 @@ import numpy as np
 
 from human_tracker.vision.appearance import AppearanceModel, colour_bins
 from human_tracker.vision.boxes import Box, BoxRelation, box_centre, centre_within
-from human_tracker.vision.camera_motion import estimate_camera_motion
+from human_tracker.vision.camera_motion import estimate_camera_motion, move_states
 from human_tracker.vision.faces import FACE_ON_HEAD, Detection, FaceDetector, face_detector_available
 from human_tracker.vision.initialisation import blobs, moments_state, state_from_scan
 from human_tracker.vision.measurement import edge_map
@@ -418,10 +418,9 @@ class TargetTracker:
     last_face: tuple[float, float, float, float] | None = field(default=None, init=False)
     previous_frame: np.ndarray | None = field(default=None, init=False)
     camera_motion: np.ndarray | None = field(default=None, init=False)  # (2, 3) since the last frame
-    # The box reported on the last frame (working pixels), and on the frame the faces delivered
-    # on this one were found on.
+    # The box reported on the last frame (working pixels): with ``detector_thread``, the frame
+    # the faces delivered on this one were found on.
     reported_box: Box | None = field(default=None, init=False)
-    faces_box: Box | None = field(default=None, init=False)
     start_box: tuple[float, float, float, float] | None = field(default=None, init=False)
     started_from_box: bool = field(default=False, init=False)
     detector: FaceDetector | None = field(default=None, init=False)
@@ -511,7 +510,7 @@ class TargetTracker:
         self.last_face = None
         self.detected_on = None
         self._pending = None
-        self.reported_box = self.faces_box = None
+        self.reported_box = None
         self.previous_frame = None
         self.start_box = None
         self.started_from_box = False
@@ -847,7 +846,6 @@ class TargetTracker:
         if self._pending is not None:
             (search, future), self._pending = self._pending, None
             delivered = self._carried(self._found(search, future.result()))
-            self.faces_box = self.reported_box
         search = self._search(image)
         if search is None:
             return delivered
@@ -892,12 +890,11 @@ class TargetTracker:
         if not faces or particles is None or previous is None:
             return faces
         velocity = self.filter.parameters.velocity_damping * (particles[:, :2] - previous[:, :2]).mean(axis=0)
-        camera = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]) if self.camera_motion is None else self.camera_motion
+        centres = np.array([[x + w / 2, y + h / 2, w, 0.0] for x, y, w, h in (face.box for face in faces)])
+        moved = centres if self.camera_motion is None else move_states(centres, self.camera_motion)
         carried = []
-        for face in faces:
+        for face, (dx, dy) in zip(faces, (moved[:, :2] + velocity - centres[:, :2]).tolist(), strict=True):
             x, y, w, h = face.box
-            centre = np.array([x + w / 2, y + h / 2])
-            dx, dy = (float(v) for v in camera[:, :2] @ centre + camera[:, 2] + velocity - centre)
             carried.append(face._replace(box=(x + dx, y + dy, w, h), carried=(dx, dy)))
         return carried
 
@@ -958,34 +955,34 @@ class TargetTracker:
         a box was given on (``given_box``, working pixels) relates to that box itself: the
         contour has already moved within the frame's filter step. A face the detector's thread
         delivers a frame late relates to the box reported on the frame it was found on
-        (``faces_box``), carried as the face was.
+        (``reported_box``, not yet this frame's), carried as the face was.
         """
-        x, y, w, h = face.box
-        if self.face_relation is None:
-            dx, dy = face.carried
-            if self.detector is not None and self.detected_on is not None:
-                # The relation is kept for the whole track: it must not carry one detection's
-                # jitter. Found again where it was found, on that frame.
-                localise = partial(self.detector.localise, self.detected_on, (x - dx, y - dy, w, h))
-                x, y, w, h = localise() if self._worker is None else self._worker.submit(localise).result()
-                x, y = x + dx, y + dy
-            if given_box is not None:
-                box = given_box
-            elif self.box_relation is not None and self.faces_box is not None and not initialised:
-                # The box reported on the frame the face was found on, carried like the face:
-                # the relation of two things seen on one frame.
-                bx, by, bw, bh = self.faces_box
-                box = (bx + dx, by + dy, bw, bh)
-            elif self.box_relation is not None:
-                box = self.box_relation.box(state)
-            else:
-                # An automatic start reports the head box: where the face puts the head
-                # (FACE_ON_HEAD), not where this frame's contour happens to be.
-                box = self._own_region().box(FACE_ON_HEAD.state((x, y, w, h)))
-            self.face_relation = BoxRelation.of(box, np.array([x + w / 2, y + h / 2, w, 0.0]))
-        else:
-            face_state = np.array([x + w / 2, y + h / 2, w, 0.0])
+        (x, y, w, h), (dx, dy) = face.box, face.carried
+        if self.face_relation is None and self.detector is not None and self.detected_on is not None:
+            # The relation is kept for the whole track: it must not carry one detection's
+            # jitter. Found again where it was found, on that frame.
+            localise = partial(self.detector.localise, self.detected_on, (x - dx, y - dy, w, h))
+            x, y, w, h = localise() if self._worker is None else self._worker.submit(localise).result()
+            x, y = x + dx, y + dy
+        face_state = np.array([x + w / 2, y + h / 2, w, 0.0])
+        if self.face_relation is not None:
             self.box_relation = BoxRelation.of(self.face_relation.box(face_state), state)
+            return
+        late = self._worker is not None and self.reported_box is not None and not initialised
+        if given_box is not None:
+            box = given_box
+        elif self.box_relation is not None and late:
+            # The box reported on the frame the face was found on, carried like the face: the
+            # relation of two things seen on one frame.
+            bx, by, bw, bh = self.reported_box
+            box = (bx + dx, by + dy, bw, bh)
+        elif self.box_relation is not None:
+            box = self.box_relation.box(state)
+        else:
+            # An automatic start reports the head box: where the face puts the head
+            # (FACE_ON_HEAD), not where this frame's contour happens to be.
+            box = self._own_region().box(FACE_ON_HEAD.state((x, y, w, h)))
+        self.face_relation = BoxRelation.of(box, face_state)
 
     def _restart_on_face(
         self,

@@ -75,11 +75,11 @@ def test_a_face_is_cut_from_the_regions_hypotheses_come_from() -> None:
     skin = np.full((120, 160), 255, np.uint8)
     tracker.last_face = (50.0, 40.0, 20.0, 20.0)
     region = tracker.initial_region(None, skin)
-    # Forehead to neck: x from 50 - 0.2 * 20 = 46 to 46 + 1.4 * 20 = 74, y from 40 - 0.3 * 20
-    # = 34 to 34 + 2.1 * 20 = 76.
+    # Forehead to collar: x from 50 - 0.2 * 20 = 46 to 46 + 1.4 * 20 = 74, y from 40 - 0.3 * 20
+    # = 34 to 34 + 2.8 * 20 = 90.
     cut = np.argwhere(region == 0)
-    assert cut.min(axis=0).tolist() == [34, 46] and cut.max(axis=0).tolist() == [75, 73]
-    assert np.count_nonzero(region == 0) == 42 * 28
+    assert cut.min(axis=0).tolist() == [34, 46] and cut.max(axis=0).tolist() == [89, 73]
+    assert np.count_nonzero(region == 0) == 56 * 28
     assert np.count_nonzero(skin == 0) == 0  # the skin labels given are left as they are
 
 

@@ -1113,9 +1113,12 @@ def _face_on(detections: list[Detection], state: np.ndarray) -> Detection | None
 
 def _face_and_neck(face: tuple[float, float, float, float]) -> tuple[float, float, float, float]:
     """The skin around a detected face box (x, y, w, h): the box runs from the eyebrows to the
-    chin, and the forehead above it and the neck below it are skin of the same region."""
+    chin, and the forehead above it and the neck and collar down to 1.5 face heights below the
+    chin are skin of the same region. Down to 0.8 face heights, a hand's contour settled on the
+    chin and collar while the hand waved beside the face (hand2 as a person, 20 seeds: precision
+    0.41 -> 0.46, the most confidently wrong frames of a run 9.0 % -> 6.4 %)."""
     x, y, w, h = face
-    return (x - 0.2 * w, y - 0.3 * h, 1.4 * w, 2.1 * h)
+    return (x - 0.2 * w, y - 0.3 * h, 1.4 * w, 2.8 * h)
 
 
 def _exposure_gain(image: np.ndarray, max_gain: float = 4.0) -> np.ndarray:

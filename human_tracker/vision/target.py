@@ -1116,7 +1116,8 @@ def _face_and_neck(face: tuple[float, float, float, float]) -> tuple[float, floa
     chin, and the forehead above it and the neck and collar down to 1.5 face heights below the
     chin are skin of the same region. Down to 0.8 face heights, a hand's contour settled on the
     chin and collar while the hand waved beside the face (hand2 as a person, 20 seeds: precision
-    0.41 -> 0.46, the most confidently wrong frames of a run 9.0 % -> 6.4 %)."""
+    0.41 -> 0.46, the most confidently wrong frames of a run 9.0 % -> 6.4 %; the hand alone
+    0.42 either way, but a restart can now fall on skin-coloured wood: docs/evaluation.md)."""
     x, y, w, h = face
     return (x - 0.2 * w, y - 0.3 * h, 1.4 * w, 2.8 * h)
 

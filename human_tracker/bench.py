@@ -49,6 +49,7 @@ from human_tracker.evaluation.accuracy import (
     by_sequence_and_tracker,
     compare_on_folder,
     compare_on_sequence,
+    covariance_table,
     precision_cell,
     real_people_table,
     wrong_cell,
@@ -215,8 +216,11 @@ def _acceptance(results: dict[str, object]) -> list[dict[str, object]]:
     confident-wrong frames, the start without a box, skin labels on HGR."""
     checks: list[dict[str, object]] = []
 
-    def check(name: str, measured: float, bar: float, at_most: bool = False) -> None:
-        met = measured <= bar if at_most else measured >= bar
+    def check(name: str, measured: float, bar: float | tuple[float, float], at_most: bool = False) -> None:
+        if isinstance(bar, tuple):
+            met = bar[0] <= measured <= bar[1]
+        else:
+            met = measured <= bar if at_most else measured >= bar
         checks.append({'check': name, 'measured': measured, 'bar': bar, 'met': met})
 
     speed = results.get('speed')
@@ -231,6 +235,7 @@ def _acceptance(results: dict[str, object]) -> list[dict[str, object]]:
             check(name, stages['person_pipeline'], round(2.5 * stages['pipeline'], 3), at_most=True)
     scores: dict[str, dict[str, float]] = {}
     wrong: dict[str, float] = {}
+    consistency: dict[str, float] = {}  # the head bags' NEES
     for row in results.get('accuracy', []):  # type: ignore[union-attr]
         tracker, sequence = str(row['tracker']), str(row['sequence'])
         kind = tracker.split(' (')[0]
@@ -240,6 +245,8 @@ def _acceptance(results: dict[str, object]) -> list[dict[str, object]]:
         if name.startswith(('ours', 'person')):
             # The worst run: a robot is told where a person is, wrongly, whichever seed it drew.
             wrong[f'{sequence} ({name})'] = float(row.get('confident_wrong_max', row.get('confident_wrong', 0.0)))
+        if name == 'ours' and sequence.startswith('head_') and 'nees_mean' in row:
+            consistency[sequence] = float(row['nees_mean'])
     for sequence, by in scores.items():
         rivals = [by[name] for name in ('CamShift', 'MIL', 'KCF') if name in by]
         check(f'{sequence}: mean precision at 20 px >= CamShift, MIL, KCF', by['ours'], max(rivals, default=0.0))
@@ -253,6 +260,8 @@ def _acceptance(results: dict[str, object]) -> list[dict[str, object]]:
         check('hand2: mean precision at 20 px >= CSRT', scores['hand2']['ours'], scores['hand2'].get('CSRT', 0.0))
     for name, share in wrong.items():
         check(f'{name}: confident-wrong share, worst run <= 0.05', share, 0.05, at_most=True)
+    for sequence, nees in consistency.items():
+        check(f'{sequence}: pose NEES of x, y within a factor 2 of 2', nees, (1.0, 4.0))
     for row in results.get('latency', []):  # type: ignore[union-attr]
         if row['rate'] == 'full speed':
             continue
@@ -438,6 +447,7 @@ def main(argv: list[str] | None = None) -> int:
         columns = ['sequence', 'tracker', 'precision_20px', 'success_auc', 'mean_centre_error_px', 'confident_wrong']
         columns += ['ms_per_frame']
         columns += ['runs', 'precision_20px_mean', 'precision_20px_min', 'precision_20px_max', 'confident_wrong_max']
+        columns += ['nees_mean', 'nees_within_95']
         report += [
             '## accuracy (same frames, same first box; figures of the first run; precision and the worst'
             ' confident-wrong share over all runs)\n',
@@ -502,6 +512,7 @@ def main(argv: list[str] | None = None) -> int:
             write_between_markers(options.readme, 'summary', _readme_summary(results))
         if options.evaluation:
             write_between_markers(options.evaluation, 'real', real_people_table(results['accuracy']))  # type: ignore[arg-type]
+            write_between_markers(options.evaluation, 'covariance', covariance_table(results['accuracy']))  # type: ignore[arg-type]
     print('\n'.join(report))
     return 0
 

@@ -15,6 +15,7 @@ import json
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import TypeVar
 
 import cv2
 import numpy as np
@@ -35,7 +36,16 @@ from human_tracker.vision.target import TargetParameters, parameters_for
 from human_tracker.vision.templates import make_template
 from human_tracker.vision.tracker import TrackerParameters, check_box_in_image
 
-__all__ = ['CUES', 'POSE_COLUMNS', 'TrackOptions', 'read_ids', 'read_poses', 'read_tracks', 'track_sequence']
+__all__ = [
+    'CUES',
+    'POSE_COLUMNS',
+    'TrackOptions',
+    'read_covariances',
+    'read_ids',
+    'read_poses',
+    'read_tracks',
+    'track_sequence',
+]
 
 CUES = ('background', 'flow', 'none')
 POSE_COLUMNS = (
@@ -54,12 +64,16 @@ POSE_COLUMNS = (
     'motion_support',
     'skin_support',
     'appearance_distance',
+    'centre_var_x',
+    'centre_cov_xy',
+    'centre_var_y',
     'id',
     'kind',
     'person',
     'target',
 )
 _AFTER_STATUS = len(POSE_COLUMNS) - POSE_COLUMNS.index('status') - 1
+_T = TypeVar('_T')
 
 
 @dataclass
@@ -281,10 +295,12 @@ def _pose_row(index: int, stamp_ns: int, outcome: TrackedTarget) -> list[object]
     x, y, s, theta = (round(float(v), 4) for v in estimate.state)
     shown = [round(v, 2) for v in estimate.box] if result.tracking else ['', '', '', '']
     support = (estimate.motion_support, estimate.skin_support, estimate.appearance_distance)
+    (var_x, cov_xy), (_, var_y) = estimate.centre_covariance
     return [
         *(index, stamp_ns, x, y, s, theta, round(estimate.confidence, 4), result.status),
         *shown,
         *(round(v, 4) for v in support),
+        *(round(float(v), 3) for v in (var_x, cov_xy, var_y)),
         *who,
     ]
 
@@ -332,7 +348,17 @@ def read_poses(path: str | Path, kind: str | None = None) -> list[Box | None]:
         ValueError: Not such a table (:func:`read_tracks`), no target of ``kind`` in it, or a
             person's table and no ``kind``.
     """
-    tracks = read_tracks(path)
+    return _one_target(path, read_tracks(path), kind)
+
+
+def read_covariances(path: str | Path, kind: str | None = None) -> list[np.ndarray | None]:
+    """The ``(2, 2)`` covariance (pixels²) of each box's centre in a ``poses.csv``, one per
+    frame (None where not tracked), of the target :func:`read_poses` reads."""
+    return _one_target(path, _read_table(path)[2], kind)
+
+
+def _one_target(path: str | Path, tracks: dict[str, list[_T]], kind: str | None) -> list[_T]:
+    """The column of :func:`read_poses`'s target among a table's ``tracks``."""
     if kind is None and len(tracks) > 1:
         raise ValueError(f'{path} follows a person ({", ".join(tracks)}): name the kind to read')
     if kind is not None and kind not in tracks:
@@ -356,19 +382,22 @@ def read_ids(path: str | Path) -> dict[str, list[int]]:
     """The targets' ids from a ``poses.csv`` (as :func:`read_tracks`; 0 where a target has none).
     A kind whose rows carry no id at all (the demo's table, from ``pose`` over DDS) is one
     track: id 1 wherever it has a box."""
-    boxes, ids = _read_table(path)
+    boxes, ids, _ = _read_table(path)
     for kind, column in ids.items():
         if not any(column):
             ids[kind] = [int(box is not None) for box in boxes[kind]]
     return ids
 
 
-def _read_table(path: str | Path) -> tuple[dict[str, list[Box | None]], dict[str, list[int]]]:
-    """Boxes and ids of a ``poses.csv``, by target (its ``target`` column, else its kind; see
-    :func:`read_tracks`), one per frame of the table: None and 0 on a frame without its row."""
+def _read_table(
+    path: str | Path,
+) -> tuple[dict[str, list[Box | None]], dict[str, list[int]], dict[str, list[np.ndarray | None]]]:
+    """Boxes, ids and box-centre covariances of a ``poses.csv``, by target (its ``target``
+    column, else its kind; see :func:`read_tracks`), one per frame of the table: None, 0 and
+    None on a frame without its row (a covariance also where a table has none)."""
     columns = ('box_x', 'box_y', 'box_w', 'box_h')
     frames: dict[str, None] = {}
-    rows: dict[str, dict[str, tuple[Box | None, int]]] = {}
+    rows: dict[str, dict[str, tuple[Box | None, int, np.ndarray | None]]] = {}
     try:
         with Path(path).open(newline='') as handle:
             reader = csv.DictReader(handle)
@@ -378,14 +407,21 @@ def _read_table(path: str | Path) -> tuple[dict[str, list[Box | None]], dict[str
             for row in reader:
                 values = [row[k] for k in columns]
                 box = None if '' in values or None in values else tuple(float(v) for v in values)
+                spread = [row.get(k) or '' for k in ('centre_var_x', 'centre_cov_xy', 'centre_var_y')]
+                covariance = None
+                if box is not None and '' not in spread:
+                    var_x, cov_xy, var_y = (float(v) for v in spread)
+                    covariance = np.array([[var_x, cov_xy], [cov_xy, var_y]])
                 frame = row.get('frame') or str(len(frames))
                 frames[frame] = None
                 target = row.get('target') or row.get('kind') or ''
-                rows.setdefault(target, {})[frame] = (box, int(row.get('id') or 0))
+                rows.setdefault(target, {})[frame] = (box, int(row.get('id') or 0), covariance)
     except (UnicodeDecodeError, csv.Error) as err:
         raise ValueError(f'{path} is not a poses.csv written by `track`: {err}') from err
     if not rows:
-        return {'': []}, {'': []}
-    boxes = {target: [by_frame.get(f, (None, 0))[0] for f in frames] for target, by_frame in rows.items()}
-    ids = {target: [by_frame.get(f, (None, 0))[1] for f in frames] for target, by_frame in rows.items()}
-    return boxes, ids
+        return {'': []}, {'': []}, {'': []}
+    table = {target: [by_frame.get(f, (None, 0, None)) for f in frames] for target, by_frame in rows.items()}
+    boxes = {target: [row[0] for row in column] for target, column in table.items()}
+    ids = {target: [row[1] for row in column] for target, column in table.items()}
+    covariances = {target: [row[2] for row in column] for target, column in table.items()}
+    return boxes, ids, covariances

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from human_tracker.evaluation.accuracy import _row
 
 
@@ -22,3 +24,14 @@ def test_a_row_with_ids_gives_the_mean_idf1_and_switches() -> None:
     truth = [(0.0, 0.0, 10.0, 10.0)] * 4
     row = _row('ours', [(truth, 1.0), (truth, 1.0)], truth, ids=[[1, 1, 1, 1], [1, 1, 2, 2]])
     assert row['idf1_mean'] == 0.75 and row['id_switches_mean'] == 0.5
+
+
+def test_a_row_with_covariances_gives_the_nees_over_every_run() -> None:
+    """Centres 1 px off on both axes, unit covariance: e C⁻¹ e = 2 on every frame, well inside
+    the 95 % ellipse (5.99); with a covariance of 0.1 px² it is 20, outside. Untracked frames
+    (no box) are left out."""
+    truth = [(0.0, 0.0, 10.0, 10.0)] * 2
+    hit = [(1.0, 1.0, 10.0, 10.0)] * 2
+    runs = [(hit, 1.0), ([hit[0], None], 1.0)]
+    row = _row('ours', runs, truth, covariances=[[np.eye(2), 0.1 * np.eye(2)], [np.eye(2), None]])
+    assert row['nees_mean'] == round((2 + 20 + 2) / 3, 2) and row['nees_within_95'] == round(2 / 3, 3)

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from human_tracker.bench import _acceptance, _readme_summary, write_between_markers
-from human_tracker.evaluation.accuracy import real_people_table
+from human_tracker.evaluation.accuracy import covariance_table, real_people_table
 
 
 def test_bars_are_applied_to_the_measured_figures() -> None:
@@ -24,7 +24,16 @@ def test_bars_are_applied_to_the_measured_figures() -> None:
             {'sequence': 'a', 'tracker': 'KCF', 'precision_20px': 0.5},
             {'sequence': 'b', 'tracker': 'ours (background + skin)', 'precision_20px': 0.9},
             {'sequence': 'b', 'tracker': 'CamShift', 'precision_20px': 0.9},
-            {'sequence': 'trellis', 'tracker': 'ours (background cue)', 'precision_20px': 0.7, 'confident_wrong': 0.1},
+            # The NEES bar is the head bags': a real head's is reported, not checked.
+            {'sequence': 'head_a', 'tracker': 'ours (background cue)', 'precision_20px': 1.0, 'nees_mean': 0.8},
+            {'sequence': 'head_b', 'tracker': 'ours (background cue)', 'precision_20px': 1.0, 'nees_mean': 1.7},
+            {
+                'sequence': 'trellis',
+                'tracker': 'ours (background cue)',
+                'precision_20px': 0.7,
+                'confident_wrong': 0.1,
+                'nees_mean': 5.0,
+            },
             {
                 'sequence': 'trellis',
                 'tracker': 'ours (background cue, no box)',
@@ -77,6 +86,8 @@ def test_bars_are_applied_to_the_measured_figures() -> None:
         'person pipeline, head and two hands (ms) <= 2.5 head pipeline': (9.0, 10.0, True),
         'a: mean precision at 20 px >= CamShift, MIL, KCF': (0.9, 0.95, False),
         'b: mean precision at 20 px >= CamShift, MIL, KCF': (0.9, 0.9, True),
+        'head_a: mean precision at 20 px >= CamShift, MIL, KCF': (1.0, 0.0, True),
+        'head_b: mean precision at 20 px >= CamShift, MIL, KCF': (1.0, 0.0, True),
         'trellis: mean precision at 20 px >= CamShift, MIL, KCF': (0.7, 0.0, True),
         'trellis: without a box >= 0.8 of with one': (0.5, 0.56, False),
         'hand2: mean precision at 20 px >= CamShift, MIL, KCF': (0.3, 0.0, True),
@@ -85,10 +96,14 @@ def test_bars_are_applied_to_the_measured_figures() -> None:
         'hand2: mean precision at 20 px >= CSRT': (0.3, 0.2, True),
         'a (ours): confident-wrong share, worst run <= 0.05': (0.0, 0.05, True),
         'b (ours): confident-wrong share, worst run <= 0.05': (0.0, 0.05, True),
+        'head_a (ours): confident-wrong share, worst run <= 0.05': (0.0, 0.05, True),
+        'head_b (ours): confident-wrong share, worst run <= 0.05': (0.0, 0.05, True),
         'trellis (ours): confident-wrong share, worst run <= 0.05': (0.1, 0.05, False),
         'trellis (ours, no box): confident-wrong share, worst run <= 0.05': (0.08, 0.05, False),
         'hand2 (ours): confident-wrong share, worst run <= 0.05': (0.0, 0.05, True),
         'hand2 (person, no box): confident-wrong share, worst run <= 0.05': (0.07, 0.05, False),
+        'head_a: pose NEES of x, y within a factor 2 of 2': (0.8, (1.0, 4.0), False),
+        'head_b: pose NEES of x, y within a factor 2 of 2': (1.7, (1.0, 4.0), True),
         'hgr, cells: skin F1 >= 0.92': (0.85, 0.92, False),
         'hgr, cells: skin recall >= 0.9': (0.8, 0.9, False),
         'hgr, pixels: skin F1 >= 0.92': (0.88, 0.92, False),
@@ -118,7 +133,7 @@ def test_the_summaries_of_real_people_come_from_the_run(tmp_path: Path) -> None:
     real sequences only (a bag has no run without a box), written between their markers."""
     results = {
         'accuracy': [
-            _scores('head_basic', 'ours (background cue)', 1.0, 1.0, 1.0),
+            {**_scores('head_basic', 'ours (background cue)', 1.0, 1.0, 1.0), 'nees_mean': 1.7, 'nees_within_95': 0.95},
             _scores('hand2', 'ours (background + skin)', 0.4, 0.3, 0.5, 0.06),
             _scores('hand2', 'ours (background + skin, no box)', 0.35, 0.2, 0.45),
             _scores('hand2', 'paper (background + skin)', 0.2, 0.1, 0.3),
@@ -126,7 +141,11 @@ def test_the_summaries_of_real_people_come_from_the_run(tmp_path: Path) -> None:
             {**_scores('hand2', 'person (background + skin)', 0.45, 0.4, 0.5, 0.04), 'idf1_mean': 0.123},
             {**_scores('hand2', 'person (background + skin, no box)', 0.4, 0.4, 0.4, 0.03), 'idf1_mean': 0.2},
             _scores('trellis', 'ours (background cue)', 0.9, 0.8, 1.0),
-            _scores('trellis', 'ours (background cue, no box)', 0.75, 0.75, 0.75, 0.037),
+            {
+                **_scores('trellis', 'ours (background cue, no box)', 0.75, 0.75, 0.75, 0.037),
+                'nees_mean': 9.0,  # the covariance table is of the runs from the box
+                'nees_within_95': 0.5,
+            },
             _scores('trellis', 'paper (background cue)', 0.05, 0.0, 0.1),
             _scores('trellis', 'KCF', 0.026, 0.026, 0.026),
             _scores('trellis', 'CSRT', 1.0, 1.0, 1.0),
@@ -152,6 +171,7 @@ def test_the_summaries_of_real_people_come_from_the_run(tmp_path: Path) -> None:
         '| hand2 | 0.400 [0.300, 0.500] | 0.06 | 0.350 [0.200, 0.450] | 0 | 0.200 | - | - | - | 0.206 '
         '| 0.450 [0.400, 0.500] (0.04), IDF1 0.12 | 0.400 (0.03), IDF1 0.20 |',
     ]
+    assert covariance_table(results['accuracy']).splitlines()[2:] == ['| head_basic | 1.70 | 0.95 |']
     document = tmp_path / 'README.md'
     document.write_text('# x\n<!-- bench:real -->\nold\n<!-- /bench:real -->\n\nafter\n')
     write_between_markers(document, 'real', 'new\n')

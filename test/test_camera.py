@@ -50,13 +50,20 @@ def test_a_distorted_pixel_becomes_the_ray_of_its_point() -> None:
 
 
 def test_the_pose_covariance_adds_the_contours_own_error() -> None:
-    """Hand-computed: a cloud of ±1 cm in x only, a contour 5.5 px from its edges on a head 50 px
-    wide (share 0.11), a 0.16 m head at 2 m: σ = 0.0176 m across, 0.22 m along the optical axis;
-    with a depth image's spread of 3 cm, that along it."""
+    """Hand-computed: a cloud of ±1 cm in x only, a contour 5.5 px off on a head 50 px wide
+    (share 0.11), a 0.16 m head at 2 m: σ = 0.0176 m across; along the ray the distance's
+    share and the width's spread of 5 %, 2 hypot(0.11, 0.05) = 0.2417 m, which off the axis
+    (x = 0.5 m: ray (0.25, 0, 1)) moves x with z. With a depth image's spread of 3 cm, that
+    along the ray."""
     cloud = np.array([[-0.01, 0.0, 2.0], [0.01, 0.0, 2.0]])
     covariance = position_covariance(cloud, np.array([0.0, 0.0, 2.0]), 5.5 / 50.0, 0.16)
-    np.testing.assert_allclose(np.diag(covariance), [2e-4 + 0.0176**2, 0.0176**2, 0.22**2])
-    assert covariance[0, 1] == 0.0
-    np.testing.assert_allclose(position_covariance(cloud, cloud[0], 0.0, 0.16), np.cov(cloud.T))
+    along = 2.0 * np.hypot(0.11, 0.05)
+    np.testing.assert_allclose(np.diag(covariance), [2e-4 + 0.0176**2, 0.0176**2, along**2])
+    assert covariance[0, 1] == 0.0 and covariance[0, 2] == 0.0
+    aside = position_covariance(cloud, np.array([0.5, 0.0, 2.0]), 5.5 / 50.0, 0.16)
+    np.testing.assert_allclose(aside[0, 0], 2e-4 + 0.0176**2 + (0.25 * along) ** 2)
+    np.testing.assert_allclose([aside[0, 2], aside[1, 2]], [0.25 * along**2, 0.0])
+    width_only = position_covariance(cloud, cloud[0], 0.0, 0.16)
+    np.testing.assert_allclose(width_only - np.cov(cloud.T), (0.1**2) * np.outer([-0.005, 0, 1], [-0.005, 0, 1]))
     measured = position_covariance(cloud, np.array([0.0, 0.0, 2.0]), 0.11, 0.16, depth_spread=0.03)
     assert measured[2, 2] == pytest.approx(0.03**2)

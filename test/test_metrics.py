@@ -5,7 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from human_tracker.evaluation.metrics import centre_errors, overlaps, precision_at, success_auc, summarise
+from human_tracker.evaluation.metrics import (
+    centre_errors,
+    normalised_errors,
+    overlaps,
+    precision_at,
+    success_auc,
+    summarise,
+)
 from human_tracker.evaluation.skin import box_mask, skin_scores
 
 
@@ -18,6 +25,16 @@ def test_centre_error_iou_and_precision_hand_computed() -> None:
     assert precision_at(errors, 20) == pytest.approx(1 / 3)
     # Boxes shifted by (3, 4): intersection 7 * 6 = 42, union 200 - 42 = 158.
     np.testing.assert_allclose(overlaps(predicted, truth), [42 / 158, 0.0, 0.0])
+
+
+def test_normalised_errors_hand_computed() -> None:
+    """e C⁻¹ e of the box centre: (3, 4) px off with variances 9 and 16 gives 1 + 1; with a
+    correlation too, the full inverse. Frames without a box, a covariance or a truth are skipped."""
+    truth = [(0, 0, 10, 10), (0, 0, 10, 10), (0, 0, 10, 10), None, (0, 0, 10, 10)]
+    predicted = [(3, 4, 10, 10), (3, 4, 10, 10), None, (1, 1, 10, 10), (1, 1, 10, 10)]
+    correlated = np.array([[2.0, 1.0], [1.0, 2.0]])  # inverse [[2, -1], [-1, 2]] / 3
+    covariances = [np.diag([9.0, 16.0]), correlated, np.eye(2), np.eye(2), None]
+    np.testing.assert_allclose(normalised_errors(predicted, covariances, truth), [2.0, (18 - 24 + 32) / 3])
 
 
 def test_success_auc_of_perfect_and_empty_tracks() -> None:

@@ -13,9 +13,10 @@ import pytest
 from conftest import REAL_DATA
 
 from human_tracker.cli import main
+from human_tracker.evaluation.metrics import normalised_errors
 from human_tracker.io.bags import read_frames
-from human_tracker.io.sequences import read_groundtruth, write_groundtruth
-from human_tracker.offline import POSE_COLUMNS, TrackOptions, read_poses, track_sequence
+from human_tracker.io.sequences import open_sequence, read_groundtruth, write_groundtruth
+from human_tracker.offline import POSE_COLUMNS, TrackOptions, read_covariances, read_poses, track_sequence
 
 
 def test_track_a_bag_writes_every_output(tmp_path, head_bag) -> None:
@@ -34,6 +35,12 @@ def test_track_a_bag_writes_every_output(tmp_path, head_bag) -> None:
     with (tmp_path / 'poses.csv').open() as handle:
         rows = list(csv.DictReader(handle))
     assert tuple(rows[0]) == POSE_COLUMNS and len(rows) == 120
+    # Each box comes with its centre's covariance, which holds its errors (NEES 2 expected).
+    boxes, covariances = read_poses(tmp_path / 'poses.csv'), read_covariances(tmp_path / 'poses.csv')
+    assert [b is None for b in boxes] == [c is None for c in covariances]
+    assert all(np.linalg.eigvalsh(c).min() > 0 for c in covariances if c is not None)
+    nees = normalised_errors(boxes, covariances, [f.ground_truth for f in open_sequence(head_bag)])
+    assert nees.size >= 100 and 1.0 < nees.mean() < 4.0
     assert json.loads((tmp_path / 'summary.json').read_text())['precision_20px'] == summary['precision_20px']
     video = cv2.VideoCapture(str(tmp_path / 'tracking.mp4'))
     assert int(video.get(cv2.CAP_PROP_FRAME_COUNT)) == 120

@@ -99,8 +99,9 @@ def test_bag_play_and_tracker_node_in_separate_processes(head_bag, tmp_path) -> 
     velocity = np.array([[t.twist.linear.x, t.twist.linear.y] for t in twists])
     spread = np.sqrt([np.diag(np.reshape(t.covariance, (6, 6)))[:2] for t in twists])
     print(f'velocity error (m/s): median {np.median(np.abs(velocity - true_velocity), axis=0)}')
-    # The pose's covariance holds the contour's own error (calibrated on real people, where it
-    # is larger): no longer over-confident (a normalised error squared of 24 on average before).
+    # The pose's covariance holds the contour's own error and, along the ray, the distance's
+    # from an assumed width: the normalised error squared near its expected 2 (4.4 with the
+    # distance's error along the optical axis alone).
     errors = [
         np.subtract([p.pose.position.x, p.pose.position.y], t[:2])
         for p, t in ((collector.poses[f.stamp_ns].pose, t) for f, t in zip(frames, truth, strict=True))
@@ -108,7 +109,7 @@ def test_bag_play_and_tracker_node_in_separate_processes(head_bag, tmp_path) -> 
     covariances = [np.reshape(collector.poses[f.stamp_ns].pose.covariance, (6, 6))[:2, :2] for f in frames]
     nees = np.mean([e @ np.linalg.solve(c, e) for e, c in zip(errors, covariances, strict=True)])
     print(f'pose NEES (x, y; 2 expected): {nees:.2f}')
-    assert 0.1 < nees < 4.0
+    assert 1.0 < nees < 4.0
     assert np.all(np.median(np.abs(velocity - true_velocity), axis=0) < 0.1)  # the head moves at ~0.4 m/s
     assert np.corrcoef(velocity[:, 0], true_velocity[:, 0])[0, 1] > 0.8
     # The covariance is the cloud's: errors about one standard deviation (0.5 and 0.75 measured).

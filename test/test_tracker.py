@@ -11,7 +11,7 @@ from human_tracker.io.bags import read_frames
 from human_tracker.ros.image_conversion import message_to_bgr8
 from human_tracker.vision.measurement import edge_map
 from human_tracker.vision.templates import head_and_shoulders
-from human_tracker.vision.tracker import ContourTracker, TrackerParameters
+from human_tracker.vision.tracker import RESIDUAL_FLOOR, ContourTracker, TrackerParameters
 
 
 def _track(bag, parameters: TrackerParameters) -> tuple[list, list, list]:
@@ -61,20 +61,29 @@ def test_particle_count_changes_at_run_time() -> None:
 
 def test_fit_residual_is_the_rms_distance_to_the_edges_found() -> None:
     """A contour on a silhouette's own outline sits within a pixel or so of its edges, one
-    shifted sideways by 4 px further off; with no edge at all the residual is δ."""
+    shifted sideways by 4 px further off; with no edge at all the residual is δ. The position
+    error is the residual above RESIDUAL_FLOOR, plus the pixel grid's 1/12 px², and with the
+    cloud's spread makes the centre's covariance."""
     template = head_and_shoulders()
     state = np.array([80.0, 70.0, 40.0, 0.0])
     silhouette = np.zeros((160, 160), np.uint8)
     outline = (template.points * state[2] + state[:2]).round().astype(np.int32)
     cv2.fillPoly(silhouette, [outline], 255)
-    residuals = []
+    estimates = []
     for shift in (0.0, 4.0):
         tracker = ContourTracker(
             template, TrackerParameters(num_particles=50, process_noise=(0.0,) * 4, initial_spread=(0.0,) * 4)
         )
         tracker.initialise(state + [shift, 0.0, 0.0, 0.0])
-        residuals.append(tracker.step(edge_map(silhouette)).fit_residual)
+        estimates.append(tracker.step(edge_map(silhouette)))
+    residuals = [e.fit_residual for e in estimates]
     assert residuals[0] < 1.5 < 2.0 < residuals[1] < 4.0
+    for estimate in estimates:
+        expected = np.sqrt(max(estimate.fit_residual**2 - RESIDUAL_FLOOR**2, 0.0) + 1 / 12)
+        assert estimate.position_error == pytest.approx(expected)
+        # All particles on one state: the centre's covariance is the position error alone.
+        np.testing.assert_allclose(estimate.centre_covariance, estimate.position_error**2 * np.eye(2), atol=1e-9)
+    assert estimates[0].position_error < 1.0 < 1.5 < estimates[1].position_error
     tracker = ContourTracker(template, TrackerParameters(num_particles=50))
     tracker.initialise(state)
     assert tracker.step(np.zeros((160, 160), np.uint8)).fit_residual == tracker.parameters.search_halfwidth

@@ -26,9 +26,9 @@ import numpy as np
 
 from human_tracker.evaluation.baselines import run_baseline
 from human_tracker.evaluation.identity import identity_scores, one_track
-from human_tracker.evaluation.metrics import Box, summarise
+from human_tracker.evaluation.metrics import Box, normalised_errors, summarise
 from human_tracker.io.sequences import open_sequence
-from human_tracker.offline import TrackOptions, read_ids, read_poses, track_sequence
+from human_tracker.offline import TrackOptions, read_covariances, read_ids, read_poses, track_sequence
 from human_tracker.vision.people import kinds_of
 from human_tracker.vision.target import TargetParameters, parameters_for
 from human_tracker.vision.tracker import TrackerParameters
@@ -41,6 +41,7 @@ __all__ = [
     'by_sequence_and_tracker',
     'compare_on_folder',
     'compare_on_sequence',
+    'covariance_table',
     'precision_cell',
     'real_people_table',
     'wrong_cell',
@@ -51,6 +52,8 @@ CONTRIB_BASELINES = ('KCF', 'CSRT')
 SEEDS = (0, 1, 2, 3, 4)
 """Seeds of our filter's random generator, one run each."""
 RANDOM_BASELINE_RUNS = {'MIL': 3}
+_CHI2_2DOF_95 = 5.991
+"""95 % quantile of the chi-squared distribution with 2 degrees of freedom."""
 """Runs of the baselines whose result changes from run to run (the others run once)."""
 _REPO = Path(__file__).resolve().parents[2]
 
@@ -104,6 +107,18 @@ def real_people_table(rows: list[dict[str, object]]) -> str:
     return '\n'.join(lines) + '\n'
 
 
+def covariance_table(rows: list[dict[str, object]]) -> str:
+    """Markdown table of how well the box centre's covariance matches its errors: ours from the
+    first box on every sequence, the normalised estimation error squared over the runs' tracked
+    frames (2 expected) and the share of them within the 95 % ellipse (0.95 expected)."""
+    lines = ['| sequence | NEES of x, y (2 expected) | within the 95 % ellipse |', '|---|---|---|']
+    for row in rows:
+        tracker = str(row['tracker'])
+        if tracker.startswith('ours (') and 'no box' not in tracker and 'nees_mean' in row:
+            lines.append(f'| {row["sequence"]} | {float(row["nees_mean"]):.2f} | {float(row["nees_within_95"]):.2f} |')
+    return '\n'.join(lines) + '\n'
+
+
 def compare_on_folder(folder: str | Path, contrib_python: Path | None) -> Iterator[dict[str, object]]:
     """:func:`compare_on_sequence` on every sequence of ``folder`` (its sub-folders with a
     ``groundtruth.txt``, by name), from the first box and without, with the paper's tracker
@@ -134,12 +149,24 @@ def _row(
     runs: list[tuple[list[Box | None], float]],
     scored: list[Box | None],
     ids: list[list[int]] | None = None,
+    covariances: list[list[np.ndarray | None]] | None = None,
 ) -> dict[str, object]:
     """The first run's scores and ms per frame, the precision's mean, min and max over ``runs``, the
     largest confident-wrong share of any run; with each run's target ``ids``, the mean IDF1 and
-    identity switches (:mod:`~human_tracker.evaluation.identity`)."""
+    identity switches (:mod:`~human_tracker.evaluation.identity`); with each run's box-centre
+    ``covariances``, the normalised estimation error squared over every run's frames (its mean,
+    2 expected, and the share within the 95 % ellipse)."""
     summaries = [summarise(boxes, scored) for boxes, _ in runs]
     precisions = [summary['precision_20px'] for summary in summaries]
+    consistency = {}
+    if covariances is not None:
+        nees = np.concatenate(
+            [normalised_errors(boxes, run, scored) for (boxes, _), run in zip(runs, covariances, strict=True)]
+        )
+        consistency = {
+            'nees_mean': round(float(nees.mean()), 2) if nees.size else float('nan'),
+            'nees_within_95': round(float(np.mean(nees < _CHI2_2DOF_95)), 3) if nees.size else float('nan'),
+        }
     identity = {}
     if ids is not None:
         scores = [
@@ -159,6 +186,7 @@ def _row(
         'precision_20px_min': round(min(precisions), 3),
         'precision_20px_max': round(max(precisions), 3),
         'confident_wrong_max': max(summary['confident_wrong'] for summary in summaries),
+        **consistency,
         **identity,
     }
 
@@ -207,7 +235,7 @@ def compare_on_sequence(
         for name, start, parameters in variants:
             # The target scored: a person's bag is scored on its first track, the head's.
             kind = target if name == 'person' else kinds_of(target)[0]
-            ours, ids = [], []
+            ours, ids, covariances = [], [], []
             for seed in SEEDS:
                 options = TrackOptions(
                     target='person' if name == 'person' else target,
@@ -222,8 +250,9 @@ def compare_on_sequence(
                 table = Path(scratch) / 'ours' / 'poses.csv'
                 ours.append((read_poses(table, kind), float(summary['ms_per_frame'])))
                 ids.append(read_ids(table)[kind])
+                covariances.append(read_covariances(table, kind))
             cues = 'background + skin' if summary['skin'] else 'background cue'
-            rows.append(_row(f'{name} ({cues}{"" if start else ", no box"})', ours, scored, ids))
+            rows.append(_row(f'{name} ({cues}{"" if start else ", no box"})', ours, scored, ids, covariances))
         for name in MAIN_WHEEL_BASELINES:
             runs = [
                 run_baseline(name, (f.image for f in frames[first:]), init)

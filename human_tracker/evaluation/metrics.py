@@ -10,7 +10,16 @@ from collections.abc import Sequence
 
 import numpy as np
 
-__all__ = ['Box', 'centre_errors', 'overlaps', 'precision_at', 'success_curve', 'success_auc', 'summarise']
+__all__ = [
+    'Box',
+    'centre_errors',
+    'normalised_errors',
+    'overlaps',
+    'precision_at',
+    'success_curve',
+    'success_auc',
+    'summarise',
+]
 
 Box = tuple[float, float, float, float]
 
@@ -32,6 +41,21 @@ def centre_errors(predicted: Sequence[Box | None], truth: Sequence[Box | None]) 
             continue
         errors.append(float(np.hypot(p[0] + p[2] / 2 - t[0] - t[2] / 2, p[1] + p[3] / 2 - t[1] - t[3] / 2)))
     return np.array(errors, dtype=np.float64)
+
+
+def normalised_errors(
+    predicted: Sequence[Box | None], covariances: Sequence[np.ndarray | None], truth: Sequence[Box | None]
+) -> np.ndarray:
+    """Normalised estimation error squared e C⁻¹ e of the box centre on the annotated frames with
+    a box and its centre's ``(2, 2)`` covariance C (pixels²): chi-squared with 2 degrees of
+    freedom, mean 2, when C is the error's true covariance."""
+    values = []
+    for p, c, t in zip(predicted, covariances, truth, strict=True):
+        if p is None or c is None or t is None or t[2] <= 0 or t[3] <= 0:
+            continue
+        error = np.array([p[0] + p[2] / 2 - t[0] - t[2] / 2, p[1] + p[3] / 2 - t[1] - t[3] / 2])
+        values.append(float(error @ np.linalg.solve(c, error)))
+    return np.array(values, dtype=np.float64)
 
 
 def overlaps(predicted: Sequence[Box | None], truth: Sequence[Box | None]) -> np.ndarray:

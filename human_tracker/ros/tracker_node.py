@@ -277,8 +277,9 @@ class TrackerNode(ImageStage):
             self,
             'fit_residual_gain',
             FIT_RESIDUAL_GAIN,
-            "The contour's own error in the pose's covariance, in RMS distances from its points to "
-            'the edges they found: across the optical axis, and the same share of the depth along it.',
+            "The contour's own error in the pose's covariance, in its position errors (the RMS "
+            'distance from its points to the edges they found, above that of a contour on the '
+            'outline): across the optical axis, and the same share of the depth along it.',
             low=0.0,
             high=100.0,
             read_only=True,
@@ -631,7 +632,8 @@ class TrackerNode(ImageStage):
         pose.pose.orientation.z = float(np.sin(theta / 2.0))
         pose.pose.orientation.w = float(np.cos(theta / 2.0))
         covariance = np.zeros((6, 6))
-        fit_share = self.fit_residual_gain * estimate.fit_residual / float(estimate.state[2])
+        reference_width = float(estimate.state[2]) * tracker.template.reference_box[2]  # pixels
+        fit_share = self.fit_residual_gain * estimate.position_error / reference_width
         covariance[:3, :3] = position_covariance(cloud, position, fit_share, width, spread)
         covariance[3, 3] = covariance[4, 4] = _UNKNOWN_VARIANCE
         covariance[5, 5] = estimate.covariance[3, 3]

@@ -15,11 +15,12 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from human_tracker.vision.templates import ContourTemplate
+from human_tracker.vision.templates import ContourTemplate, reference_centres
 
 __all__ = [
     'DEFAULT_HORIZONTAL_FOV',
     'FIT_RESIDUAL_GAIN',
+    'WIDTH_SPREAD',
     'back_project',
     'default_camera_matrix',
     'metric_positions',
@@ -32,9 +33,15 @@ DEFAULT_HORIZONTAL_FOV = np.deg2rad(60.0)
 
 
 FIT_RESIDUAL_GAIN = 1.0
-"""The contour's own error in the pose covariance, in RMS fit residuals (see
+"""The contour's own error in the pose covariance, in its position errors (see
 :func:`position_covariance`); the normalised estimation error it gives on the bags and the
 real heads is in docs/method.md."""
+
+
+WIDTH_SPREAD = 0.05
+"""Relative standard deviation of a person's true head or hand width about the assumed
+``target_width``: adults' head breadths spread by about 4-5 %. A distance from the width is
+off by as much, however well the contour fits."""
 
 
 def default_camera_matrix(width: int, height: int, horizontal_fov: float = DEFAULT_HORIZONTAL_FOV) -> np.ndarray:
@@ -68,14 +75,10 @@ def metric_positions(
     states = np.asarray(states, dtype=np.float64)
     single = states.ndim == 1
     states = np.atleast_2d(states)
-    rx, ry, rw, rh = template.reference_box
-    centre = np.array([rx + rw / 2.0, ry + rh / 2.0])
-    cos, sin = np.cos(states[:, 3]), np.sin(states[:, 3])
-    u = states[:, 0] + states[:, 2] * (cos * centre[0] - sin * centre[1])
-    v = states[:, 1] + states[:, 2] * (sin * centre[0] + cos * centre[1])
     if depth is None:
-        depth = camera_matrix[0, 0] * target_width / np.maximum(states[:, 2] * rw, 1e-6)
-    pixels = undistort_pixels(np.stack([u, v], axis=1), camera_matrix, distortion)
+        reference_width = template.reference_box[2]
+        depth = camera_matrix[0, 0] * target_width / np.maximum(states[:, 2] * reference_width, 1e-6)
+    pixels = undistort_pixels(reference_centres(states, template), camera_matrix, distortion)
     positions = back_project(pixels, depth, camera_matrix)
     return positions[0] if single else positions
 
@@ -118,13 +121,17 @@ def position_covariance(
     filter's hypotheses disagree, not how far the best contour sits from the person: after
     resampling the cloud is a few pixels wide. The contour's own error is added: across the
     optical axis ``fit_share`` of ``target_width`` (metres), where ``fit_share`` is the
-    contour's fit residual (:attr:`~human_tracker.vision.tracker.TrackEstimate.fit_residual`)
-    in target widths, times :data:`FIT_RESIDUAL_GAIN` or the node's gain: a contour on sharp
-    edges of the person is placed to a pixel or two, one among clutter or on a blurred outline
-    is off by about its distance to the edges it found. Along the axis the same share of the depth (depth
-    comes from the width, which is off by as much), or, for a depth measured in a depth
-    image, the readings' ``depth_spread`` (metres).
+    contour's position error
+    (:attr:`~human_tracker.vision.tracker.TrackEstimate.position_error`) in target widths,
+    times :data:`FIT_RESIDUAL_GAIN` or the node's gain: a contour on sharp edges of the person
+    is placed to about a pixel, one among clutter or on a blurred outline is off by about its
+    distance to the edges it found. Along the ray through the pose, for a depth from the
+    width, the same share of the depth and :data:`WIDTH_SPREAD` of it (the person's own width),
+    or, for a depth measured in a depth image, the readings' ``depth_spread`` (metres).
     """
     lateral = fit_share * target_width
-    along = fit_share * float(position[2]) if depth_spread is None else depth_spread
-    return np.cov(np.asarray(cloud).T) + np.diag([lateral**2, lateral**2, along**2])
+    depth = float(position[2])
+    along = depth * np.hypot(fit_share, WIDTH_SPREAD) if depth_spread is None else depth_spread
+    # A distance that is off moves the point along its ray, not along the optical axis alone.
+    ray = np.asarray(position, dtype=np.float64) / depth
+    return np.cov(np.asarray(cloud).T) + np.diag([lateral**2, lateral**2, 0.0]) + along**2 * np.outer(ray, ray)

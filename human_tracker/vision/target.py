@@ -1093,6 +1093,8 @@ class TargetTracker:
             box=(x * inverse, y * inverse, w * inverse, h * inverse),
             contour=estimate.contour * inverse,
             fit_residual=estimate.fit_residual * inverse,
+            position_error=estimate.position_error * inverse,
+            centre_covariance=estimate.centre_covariance * inverse**2,
         )
 
 

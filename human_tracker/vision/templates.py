@@ -24,6 +24,7 @@ __all__ = [
     'load_template',
     'make_template',
     'TARGETS',
+    'reference_centres',
     'transform_points',
     'fit_state',
 ]
@@ -215,6 +216,15 @@ def transform_points(points: np.ndarray, state: np.ndarray) -> np.ndarray:
 
 TARGETS = {'head': head_and_shoulders, 'hand': open_hand}
 """Built-in templates by target name."""
+
+
+def reference_centres(states: np.ndarray, template: ContourTemplate) -> np.ndarray:
+    """``(P, 2)`` image points (pixels) of the reference region's centre for ``(P, 4)`` states."""
+    rx, ry, rw, rh = template.reference_box
+    cx, cy = rx + rw / 2.0, ry + rh / 2.0
+    cos, sin = np.cos(states[:, 3]), np.sin(states[:, 3])
+    offsets = np.stack([cos * cx - sin * cy, sin * cx + cos * cy], axis=1)
+    return states[:, :2] + states[:, 2:3] * offsets
 
 
 def make_template(target: str, num_points: int = 48, template_file: str | Path = '') -> ContourTemplate:

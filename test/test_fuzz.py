@@ -7,6 +7,7 @@ import array
 import cv2
 import numpy as np
 import rclpy
+from rclpy.serialization import serialize_message
 from sensor_msgs.msg import CompressedImage, Image
 
 from human_tracker.ros.image_conversion import ENCODINGS, ImageConversionError, message_to_bgr8
@@ -69,20 +70,27 @@ def test_conversion_raises_only_its_own_error() -> None:
 
 
 def test_tracker_node_counts_every_malformed_message() -> None:
-    rng = np.random.default_rng(1)
+    """The messages as the subscription gets them, serialised; after every tenth, a copy cut
+    short or random bytes, which cannot be read at all."""
+    rng, cuts = np.random.default_rng(1), np.random.default_rng(2)
     rclpy.init()
     node = TrackerNode()
     try:
         for index in range(MESSAGES):
-            node.on_image(_random_image(rng, index))  # what the subscription calls
+            msg = _random_image(rng, index)
+            typename, data = f'sensor_msgs/msg/{type(msg).__name__}', serialize_message(msg)
+            node.on_wire_image(typename, data)  # what the subscription calls
+            if index % 10 == 0:
+                node.on_wire_image(typename, data[: int(cuts.integers(0, len(data)))])
+                node.on_wire_image(typename, cuts.bytes(int(cuts.integers(0, 64))))
         counters = node.counters
     finally:
         node.destroy_node()
         rclpy.try_shutdown()
     print(f'tracker_node after {MESSAGES} random messages: {counters}, time resets {node.time_resets}')
-    assert counters.received == MESSAGES
-    assert counters.processed + counters.skipped + counters.rejected == MESSAGES
-    assert counters.rejected > 1000 and counters.processed > 100 and counters.skipped > 0
+    assert counters.received == MESSAGES + 2_000
+    assert counters.processed + counters.skipped + counters.rejected == counters.received
+    assert counters.rejected > 3000 and counters.processed > 100 and counters.skipped > 0
 
 
 def test_a_stage_outlives_a_failing_frame() -> None:

@@ -19,6 +19,7 @@ import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -32,9 +33,11 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from rosbags.serde import SerdeError
 from sensor_msgs.msg import CameraInfo, CompressedImage, Image
-from std_msgs.msg import Bool
+from std_msgs.msg import Bool, Header
 
+from human_tracker.io.bags import TYPESTORE
 from human_tracker.io.images import stamp_ns
 from human_tracker.ros.common import (
     LATCHED_QOS,
@@ -156,10 +159,13 @@ class ImageStage(LifecycleNode):
             if transport not in ('raw', 'compressed'):
                 raise ValueError(f"image_transport must be 'raw' or 'compressed', got {transport!r}")
             qos = image_qos(self)
+            # Raw (serialised) messages: on_wire_image reads them without copying the pixels.
             if transport == 'compressed':
-                self.create_subscription(CompressedImage, 'image/compressed', self.on_image, qos)
+                on_compressed = partial(self.on_wire_image, 'sensor_msgs/msg/CompressedImage')
+                self.create_subscription(CompressedImage, 'image/compressed', on_compressed, qos, raw=True)
             else:
-                self.create_subscription(Image, 'image', self.on_image, qos)
+                on_raw = partial(self.on_wire_image, 'sensor_msgs/msg/Image')
+                self.create_subscription(Image, 'image', on_raw, qos, raw=True)
 
     def warm_up(self) -> None:
         """Compile and run the stage's kernels once on a small frame, so the first real frame is not late."""
@@ -233,7 +239,27 @@ class ImageStage(LifecycleNode):
         self.active = False
         return TransitionCallbackReturn.SUCCESS
 
-    def on_image(self, msg: Image | CompressedImage) -> None:
+    def on_wire_image(self, typename: str, data: bytes) -> None:
+        """Read one serialised (CDR) image message of ``typename`` and process it (:meth:`on_image`).
+
+        rosbags' deserialiser leaves the pixels a view of ``data``, where rclpy's message copies
+        them into an array.array (0.05 ms against 0.4 for 640x480 bgr8). A message that cannot
+        be read is counted and logged as a rejected conversion.
+        """
+        try:
+            msg = TYPESTORE.deserialize_cdr(data, typename)
+        except SerdeError as err:
+            self.counters.received += 1
+            self.counters.reject('conversion')
+            self.get_logger().warn(f'frame rejected: {err}', throttle_duration_sec=5.0)
+            return
+        # Outputs copy the header: it must be rclpy's.
+        header = Header(frame_id=msg.header.frame_id)
+        header.stamp.sec, header.stamp.nanosec = msg.header.stamp.sec, msg.header.stamp.nanosec
+        msg.header = header
+        self.on_image(msg)
+
+    def on_image(self, msg: Any) -> None:
         """Convert one image message and process it; a bad frame is counted and logged, never fatal.
 
         While the node is not active the frame is counted and dropped, unconverted."""

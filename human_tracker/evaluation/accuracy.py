@@ -52,9 +52,8 @@ CONTRIB_BASELINES = ('KCF', 'CSRT')
 SEEDS = (0, 1, 2, 3, 4)
 """Seeds of our filter's random generator, one run each."""
 RANDOM_BASELINE_RUNS = {'MIL': 3}
-_CHI2_2DOF_95 = 5.991
-"""95 % quantile of the chi-squared distribution with 2 degrees of freedom."""
 """Runs of the baselines whose result changes from run to run (the others run once)."""
+_CHI2_2DOF_95 = 5.991  # 95 % quantile of the chi-squared distribution with 2 degrees of freedom
 _REPO = Path(__file__).resolve().parents[2]
 
 

@@ -279,7 +279,7 @@ class TrackerNode(ImageStage):
             FIT_RESIDUAL_GAIN,
             "The contour's own error in the pose's covariance, in its position errors (the RMS "
             'distance from its points to the edges they found, above that of a contour on the '
-            'outline): across the optical axis, and the same share of the depth along it.',
+            'outline): across the optical axis, and the same share of the distance along the ray.',
             low=0.0,
             high=100.0,
             read_only=True,

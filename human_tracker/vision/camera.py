@@ -35,7 +35,7 @@ DEFAULT_HORIZONTAL_FOV = np.deg2rad(60.0)
 FIT_RESIDUAL_GAIN = 1.0
 """The contour's own error in the pose covariance, in its position errors (see
 :func:`position_covariance`); the normalised estimation error it gives on the bags and the
-real heads is in docs/method.md."""
+real heads is in docs/evaluation.md."""
 
 
 WIDTH_SPREAD = 0.05

@@ -28,6 +28,11 @@ def _annotated(truth: Sequence[Box | None]) -> np.ndarray:
     return np.array([t is not None and t[2] > 0 and t[3] > 0 for t in truth], dtype=bool)
 
 
+def _centre_offset(p: Box, t: Box) -> np.ndarray:
+    """``(2,)`` pixels from the centre of box ``t`` to that of box ``p``."""
+    return np.array([p[0] + p[2] / 2 - t[0] - t[2] / 2, p[1] + p[3] / 2 - t[1] - t[3] / 2])
+
+
 def centre_errors(predicted: Sequence[Box | None], truth: Sequence[Box | None]) -> np.ndarray:
     """Distance in pixels between box centres on the annotated frames (inf where no prediction)."""
     if len(predicted) != len(truth):
@@ -39,7 +44,7 @@ def centre_errors(predicted: Sequence[Box | None], truth: Sequence[Box | None]) 
         if p is None:
             errors.append(np.inf)
             continue
-        errors.append(float(np.hypot(p[0] + p[2] / 2 - t[0] - t[2] / 2, p[1] + p[3] / 2 - t[1] - t[3] / 2)))
+        errors.append(float(np.hypot(*_centre_offset(p, t))))
     return np.array(errors, dtype=np.float64)
 
 
@@ -53,7 +58,7 @@ def normalised_errors(
     for p, c, t in zip(predicted, covariances, truth, strict=True):
         if p is None or c is None or t is None or t[2] <= 0 or t[3] <= 0:
             continue
-        error = np.array([p[0] + p[2] / 2 - t[0] - t[2] / 2, p[1] + p[3] / 2 - t[1] - t[3] / 2])
+        error = _centre_offset(p, t)
         values.append(float(error @ np.linalg.solve(c, error)))
     return np.array(values, dtype=np.float64)
 

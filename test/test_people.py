@@ -67,6 +67,29 @@ def test_one_kind_is_exactly_the_target_tracker() -> None:
             np.testing.assert_array_equal(got.result.estimate.state, expected.estimate.state)
 
 
+def test_a_working_frame_computed_beforehand_gives_the_same_track() -> None:
+    """A node waiting for a frame's masks computes the frame's working image, bins and edges
+    meanwhile (PersonTracker.working_frame): handed over, they give the track computed without
+    them, for a person's head and hands."""
+    ahead, after = (PersonTracker(('head', 'hand'), TrackerParameters(seed=2)) for _ in range(2))
+    cues, skin = BackgroundModel(), SkinSegmenter(default_skin_model())
+    for frame, image in _frames('hand_wave', 30):
+        if frame.index == 0:
+            for people in (ahead, after):
+                people.initialise_from_box(frame.ground_truth, 'hand')
+        motion = cues.apply(to_working(to_mono8(image), 320))
+        labels = skin.segment(to_working(image, 320), 0.5)
+        shared = ahead.working_frame(image)
+        assert len(shared) == 1
+        got = ahead.process(image, motion, labels, shared)
+        assert len(shared) == 2  # the hand's own (colour edges) was added beside the head's
+        expected = after.process(image, motion, labels)
+        assert [(o.id, o.kind, o.result.status) for o in got] == [(o.id, o.kind, o.result.status) for o in expected]
+        for a, b in zip(got, expected, strict=True):
+            if b.result.estimate is not None:
+                np.testing.assert_array_equal(a.result.estimate.state, b.result.estimate.state)
+
+
 def test_an_id_is_given_each_time_a_target_is_taken_up_and_never_again() -> None:
     """head_leave_return: the person is followed, leaves (LOST: no id), comes back: a new id."""
     person = PersonTracker(('head',), TrackerParameters(seed=0))

@@ -201,16 +201,28 @@ class PersonTracker:
         w, h), camera pixels; the others start by themselves."""
         self.first(kind or self.kinds[0]).initialise_from_box(box)
 
+    def working_frame(self, image: np.ndarray) -> dict[tuple, WorkingFrame]:
+        """The first target's working frame of ``image`` (its reduced image, colour bins and
+        edges), for :meth:`process`: a node waiting for the frame's masks computes it meanwhile."""
+        shared: dict[tuple, WorkingFrame] = {}
+        self.slots[0].tracker.working_frame(image, shared)
+        return shared
+
     def reset(self) -> None:
         """Forget every target; the ids already given stay retired."""
         for slot in self.slots:
             self._clear(slot)
 
     def process(
-        self, image: np.ndarray, motion: np.ndarray | None = None, skin: np.ndarray | None = None
+        self,
+        image: np.ndarray,
+        motion: np.ndarray | None = None,
+        skin: np.ndarray | None = None,
+        shared: dict[tuple, WorkingFrame] | None = None,
     ) -> list[TrackedTarget]:
         """Track every target on one frame (arguments as :meth:`TargetTracker.process`; beside a
         hand, the skin labels go to the hands only: a head-and-shoulders outline is not skin).
+        ``shared``: working frames of ``image`` computed beforehand (:meth:`working_frame`).
 
         Returns:
             One outcome per slot that runs on this frame (the first person's always), in the
@@ -219,7 +231,7 @@ class PersonTracker:
         ran: list[tuple[Slot, TargetResult]] = []
         faces: dict[int, tuple[float, float, float, float] | None] = {}  # by person
         # Trackers with the same working settings (the hands; the heads) reduce the frame once.
-        shared: dict[tuple, WorkingFrame] = {}
+        shared = {} if shared is None else shared
         # Heads first: a hand keeps off the faces they find, every person's.
         for slot in sorted(self.slots, key=lambda o: o.kind != 'head'):
             if not self._runs(slot):

@@ -25,6 +25,7 @@ optical frame (``header``); the twist is not estimated per target (unknown covar
 
 from __future__ import annotations
 
+import contextlib
 import sys
 import time
 from collections import OrderedDict, deque
@@ -503,10 +504,8 @@ class TrackerNode(ImageStage):
                 # The frame's own work (reduction, colour bins, edges: 1 of the tracker's 4 ms at
                 # 640x480) is done while another node makes its masks, not after they arrive; not
                 # while an earlier frame waits, whose masks may come meanwhile and would wait.
-                try:
+                with contextlib.suppress(Exception):  # tracking the frame meets the same error and reports it
                     shared = self.people.working_frame(image)
-                except Exception:  # tracking the frame meets the same error, and reports it
-                    shared = {}
             self.pending.append((stamp, time.monotonic(), image, header, given, shared))
             self._drain()
             return DEFERRED

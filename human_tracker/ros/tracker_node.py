@@ -460,8 +460,8 @@ class TrackerNode(ImageStage):
         now = time.monotonic()
         while self.pending:
             stamp, arrived, image, header, given, shared = self.pending[0]
-            complete = all(stamp in self.masks[topic] for topic in self.mask_topics)
-            if not complete and now - arrived < self.match_timeout and len(self.pending) <= self.max_pending:
+            waiting = now - arrived < self.match_timeout and len(self.pending) <= self.max_pending
+            if waiting and not self._has_masks(stamp):
                 return
             self.pending.popleft()
             found = {topic: self.masks[topic].pop(stamp, None) for topic in self.mask_topics}
@@ -492,6 +492,10 @@ class TrackerNode(ImageStage):
                 throttle_duration_sec=5.0,
             )
 
+    def _has_masks(self, stamp: int) -> bool:
+        """Whether every mask the frame stamped ``stamp`` (ns) waits for has arrived."""
+        return all(stamp in self.masks[topic] for topic in self.mask_topics)
+
     def handle_frame(
         self, image: np.ndarray, header: Any, motion: np.ndarray | None = None, skin: np.ndarray | None = None
     ) -> object:
@@ -500,7 +504,7 @@ class TrackerNode(ImageStage):
             given = {self.motion_input: motion, 'skin': skin}
             stamp = stamp_ns(header)
             shared: dict = {}
-            if not self.pending and not all(stamp in self.masks[topic] for topic in self.mask_topics):
+            if not self.pending and not self._has_masks(stamp):
                 # The frame's own work (reduction, colour bins, edges: 1 of the tracker's 4 ms at
                 # 640x480) is done while another node makes its masks, not after they arrive; not
                 # while an earlier frame waits, whose masks may come meanwhile and would wait.

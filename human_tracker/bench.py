@@ -120,11 +120,9 @@ def measure_latency(
     """Run one layout at ``rate_hz`` (None: full speed, closed loop) over ``frames``; nodes get ``env``."""
     nodes = _layout(layout, box, env, logs)
     camera = _Camera()
-    # The tracker's own account of the frames: where a missing pose went.
-    collector = PoseCollector(namespace='bench')
+    collector: PoseCollector | None = None
     executor = SingleThreadedExecutor()
     executor.add_node(camera)
-    executor.add_node(collector)
     try:
         for node in nodes:
             node.start()
@@ -153,6 +151,11 @@ def measure_latency(
         settle = time.monotonic() + 2.0
         while time.monotonic() < settle:
             executor.spin_once(timeout_sec=0.01)
+        # The nodes' own account of the frames (where a missing pose went, their processing
+        # time), read once the frames are sent: its node, waited on beside the camera's, would
+        # delay every pose's arrival.
+        collector = PoseCollector(namespace='bench')
+        executor.add_node(collector)
         diagnostics = collector.spin_until_diagnostics(executor, '/tracker_node', 5.0)
         # The frame's path: one node runs every stage in turn, or the mask's stage then the tracker.
         chain = ['/camera_subscriber'] if layout == 'pipeline' else ['/background_node', '/tracker_node']
@@ -164,7 +167,8 @@ def measure_latency(
             node.stop()
         executor.shutdown()
         camera.destroy_node()
-        collector.destroy_node()
+        if collector is not None:
+            collector.destroy_node()
     latencies = np.array(sorted(camera.latency_s.values())) * 1000.0
     median = float(np.median(latencies)) if latencies.size else float('nan')
     return {

@@ -50,7 +50,6 @@ from human_tracker.ros.common import (
     publish_diagnostics,
 )
 from human_tracker.ros.image_conversion import ImageConversionError, message_to_bgr8
-from human_tracker.ros.memory import keep_freed_memory
 from human_tracker.threads import default_threads, use_threads
 from human_tracker.vision.camera import default_camera_matrix
 
@@ -393,7 +392,6 @@ def run_nodes(
     range or of the wrong type, a missing file) is logged with its reason and gives exit code
     2, with no traceback. Ctrl-C, even while the nodes are being built, exits with 0.
     """
-    keep_freed_memory()
     rclpy.init(args=args)
     nodes: list[Node] = []
     executor = SingleThreadedExecutor()

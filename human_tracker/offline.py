@@ -168,7 +168,7 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
     truth: list[Box | None] = []
     tracks: dict[str, list[Box | None]] = {}  # several ground-truth tracks, by name
     writer = None
-    elapsed = 0.0
+    elapsed = busy = 0.0
     rejected: dict[str, int] = {}
     with (out / 'poses.csv').open('w', newline='') as handle:
         table = csv.writer(handle)
@@ -185,7 +185,7 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
                     ids[name].append(0)
                 table.writerow([frame.index, frame.stamp_ns, *[''] * 5, 'REJECTED', *[''] * _AFTER_STATUS])
                 continue
-            start = time.perf_counter()
+            start, cpu = time.perf_counter(), time.process_time()
             gray = to_mono8(frame.image)
             # The cues are computed at the working resolution, as the tracker fits there.
             working = to_working(gray, width)
@@ -206,6 +206,7 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
                 people.initialise_from_box(options.init, init_kind)
             outcomes = people.process(frame.image if frame.image.ndim == 3 else gray, motion, skin)
             elapsed += time.perf_counter() - start
+            busy += time.process_time() - cpu
             motion_set_aside += outcomes[0].result.motion_set_aside
             ran = {outcome.name: outcome for outcome in outcomes}
             for name in names:
@@ -249,6 +250,7 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
         'frames_tracked': int(sum(b is not None for b in predicted[scored])),
         'fps': round(processed / elapsed, 2) if elapsed > 0 else None,
         'ms_per_frame': round(1000 * elapsed / max(processed, 1), 3),
+        'cpu_ms_per_frame': round(1000 * busy / max(processed, 1), 3),
     }
     if len(names) > 1:
         summary['targets'] = {name: _id_summary(ids[name]) for name in names}

@@ -14,9 +14,17 @@ def test_bars_are_applied_to_the_measured_figures() -> None:
     results = {
         'speed': {
             'stages_ms': {
-                '640x480': {'particle_filter_500': 0.8, 'pipeline': 4.0, 'hand_pipeline': 7.0, 'person_pipeline': 9.0}
+                '640x480': {
+                    'particle_filter_500': 0.8,
+                    'pipeline': 4.0,
+                    'pipeline_cpu': 5.5,
+                    'hand_pipeline': 7.0,
+                    'hand_pipeline_cpu': 7.5,
+                    'person_pipeline': 9.0,
+                }
             },
             'trackers_ms_640x480': {'ours (background cue)': 3.0, 'KCF': 2.0, 'CSRT': 25.0},
+            'trackers_cpu_ms_640x480': {'ours (background cue)': 3.5, 'KCF': 3.0, 'CSRT': 25.0},
         },
         'accuracy': [
             {'sequence': 'a', 'tracker': 'ours (background cue)', 'precision_20px': 0.97, 'precision_20px_mean': 0.9},
@@ -83,6 +91,8 @@ def test_bars_are_applied_to_the_measured_figures() -> None:
         'particle filter step, 500 particles (ms) <= 1': (0.8, 1.0, True),
         'head pipeline (ms) <= CSRT / 5': (4.0, 5.0, True),
         'hand pipeline (ms) <= 3 KCF': (7.0, 6.0, False),
+        'head pipeline, CPU of every thread (ms) <= CSRT / 5': (5.5, 5.0, False),
+        'hand pipeline, CPU of every thread (ms) <= 3 KCF': (7.5, 9.0, True),
         'person pipeline, head and two hands (ms) <= 2.5 head pipeline': (9.0, 10.0, True),
         'a: mean precision at 20 px >= CamShift, MIL, KCF': (0.9, 0.95, False),
         'b: mean precision at 20 px >= CamShift, MIL, KCF': (0.9, 0.9, True),
@@ -151,8 +161,18 @@ def test_the_summaries_of_real_people_come_from_the_run(tmp_path: Path) -> None:
             _scores('trellis', 'CSRT', 1.0, 1.0, 1.0),
         ],
         'speed': {
-            'stages_ms': {'640x480': {'particle_filter_500': 0.95, 'pipeline': 5.0, 'hand_pipeline': 9.0}},
+            'stages_ms': {
+                '640x480': {
+                    'particle_filter_500': 0.95,
+                    'pipeline': 5.0,
+                    'pipeline_cpu': 6.25,
+                    'hand_pipeline': 9.0,
+                    'hand_pipeline_cpu': 10.0,
+                }
+            },
             'trackers_ms_640x480': {'KCF': 3.0, 'CSRT': 25.0},
+            'trackers_cpu_ms_640x480': {'KCF': 4.0, 'CSRT': 25.0},
+            'opencv_threads': 1,
         },
     }
     assert _readme_summary(results).splitlines() == [
@@ -163,7 +183,9 @@ def test_the_summaries_of_real_people_come_from_the_run(tmp_path: Path) -> None:
         '| CSRT | 1.000 | 0.206 |',
         '',
         'Speed in the same run, 640x480: the head pipeline 5.0 ms per frame, 5.0x faster than CSRT (25.0 ms); '
-        'the hand pipeline 9.0 ms, 3.0x KCF (3.0 ms); one particle filter step with 500 particles 0.95 ms.',
+        'the hand pipeline 9.0 ms, 3.0x KCF (3.0 ms); in CPU time of every thread (the face detector has its own), '
+        '4.0x less than CSRT and 2.5x KCF; one particle filter step with 500 particles 0.95 ms. Every tracker ran '
+        'OpenCV on 1 thread.',
     ]
     table = real_people_table(results['accuracy']).splitlines()
     assert table[2:] == [

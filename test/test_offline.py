@@ -215,7 +215,27 @@ def test_compare_a_folder_of_sequences(tmp_path, head_bag, capsys) -> None:
     ]
     assert {row['sequence'] for row in rows} == {'walker'} and rows[0]['runs'] == 5
     assert rows[0]['precision_20px_mean'] >= 0.9
+    assert all(row['ms_per_frame'] > 0 and row['cpu_ms_per_frame'] > 0 for row in rows)
     table = (out / 'compare.md').read_text().splitlines()
     assert table[2].startswith(f'| walker | {rows[0]["precision_20px_mean"]:.3f}') and table[2].endswith('| - | - |')
     assert main(['compare', str(tmp_path / 'sequences' / 'walker' / 'img'), '--out', str(out)]) == 2
     assert 'holds no sequence' in capsys.readouterr().err
+
+
+def test_a_baseline_runs_on_the_threads_it_is_given(tmp_path, head_bag) -> None:
+    """The baselines' command (run in the contrib wheel's environment for KCF and CSRT) sets
+    OpenCV's thread count, so that every tracker of a comparison runs on the same count."""
+    folder = tmp_path / 'frames'
+    folder.mkdir()
+    frames = list(read_frames(head_bag))[:10]
+    for frame in frames:
+        cv2.imwrite(str(folder / f'{frame.index:04d}.png'), cv2.imdecode(frame.message.data, cv2.IMREAD_COLOR))
+    init = ','.join(f'{v:g}' for v in frames[0].ground_truth)
+    for threads in (1, 2):
+        out = tmp_path / f'camshift_{threads}.json'
+        command = [sys.executable, '-m', 'human_tracker.evaluation.baselines', '--tracker', 'CamShift']
+        command += ['--frames', str(folder), '--init', init, '--out', str(out), '--threads', str(threads)]
+        subprocess.run(command, check=True)
+        result = json.loads(out.read_text())
+        assert result['threads'] == threads and len(result['boxes']) == 10
+        assert result['ms_per_frame'] > 0 and result['cpu_ms_per_frame'] > 0

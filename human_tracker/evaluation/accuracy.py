@@ -131,36 +131,38 @@ def compare_on_folder(folder: str | Path, contrib_python: Path | None) -> Iterat
             yield {'sequence': path.name, **row}
 
 
-def _contrib(name: str, folder: Path, init: Box, contrib_python: Path) -> tuple[list[Box | None], float]:
+def _contrib(name: str, folder: Path, init: Box, contrib_python: Path) -> tuple[list[Box | None], float, float]:
     result = folder.parent / f'{name}.json'
+    # On as many threads as this process gives OpenCV (ours and the main wheel's baselines).
     subprocess.run(
         [str(contrib_python), '-m', 'human_tracker.evaluation.baselines', '--tracker', name, '--frames', str(folder)]
-        + ['--init', ','.join(f'{v:g}' for v in init), '--out', str(result)],
+        + ['--init', ','.join(f'{v:g}' for v in init), '--out', str(result), '--threads', str(cv2.getNumThreads())],
         check=True,
         env={**os.environ, 'PYTHONPATH': str(_REPO)},
     )
     data = json.loads(result.read_text())
-    return [None if b is None else tuple(b) for b in data['boxes']], float(data['ms_per_frame'])
+    boxes = [None if b is None else tuple(b) for b in data['boxes']]
+    return boxes, float(data['ms_per_frame']), float(data['cpu_ms_per_frame'])
 
 
 def _row(
     tracker: str,
-    runs: list[tuple[list[Box | None], float]],
+    runs: list[tuple[list[Box | None], float, float]],
     scored: list[Box | None],
     ids: list[list[int]] | None = None,
     covariances: list[list[np.ndarray | None]] | None = None,
 ) -> dict[str, object]:
-    """The first run's scores and ms per frame, the precision's mean, min and max over ``runs``, the
-    largest confident-wrong share of any run; with each run's target ``ids``, the mean IDF1 and
-    identity switches (:mod:`~human_tracker.evaluation.identity`); with each run's box-centre
-    ``covariances``, the normalised estimation error squared over every run's frames (its mean,
-    2 expected, and the share within the 95 % ellipse)."""
-    summaries = [summarise(boxes, scored) for boxes, _ in runs]
+    """The first run's scores and ms per frame (wall clock and CPU), the precision's mean, min and
+    max over ``runs``, the largest confident-wrong share of any run; with each run's target
+    ``ids``, the mean IDF1 and identity switches (:mod:`~human_tracker.evaluation.identity`);
+    with each run's box-centre ``covariances``, the normalised estimation error squared over
+    every run's frames (its mean, 2 expected, and the share within the 95 % ellipse)."""
+    summaries = [summarise(boxes, scored) for boxes, *_ in runs]
     precisions = [summary['precision_20px'] for summary in summaries]
     consistency = {}
     if covariances is not None:
         nees = np.concatenate(
-            [normalised_errors(boxes, run, scored) for (boxes, _), run in zip(runs, covariances, strict=True)]
+            [normalised_errors(boxes, run, scored) for (boxes, *_), run in zip(runs, covariances, strict=True)]
         )
         consistency = {
             'nees_mean': round(float(nees.mean()), 2) if nees.size else float('nan'),
@@ -170,7 +172,7 @@ def _row(
     if ids is not None:
         scores = [
             identity_scores({'truth': scored}, one_track(run_ids, boxes))
-            for run_ids, (boxes, _) in zip(ids, runs, strict=True)
+            for run_ids, (boxes, *_) in zip(ids, runs, strict=True)
         ]
         identity = {
             'idf1_mean': round(float(np.mean([s['idf1'] for s in scores])), 3),
@@ -180,6 +182,7 @@ def _row(
         'tracker': tracker,
         **summaries[0],
         'ms_per_frame': round(runs[0][1], 3),
+        'cpu_ms_per_frame': round(runs[0][2], 3),
         'runs': len(runs),
         'precision_20px_mean': round(sum(precisions) / len(precisions), 3),
         'precision_20px_min': round(min(precisions), 3),
@@ -247,7 +250,7 @@ def compare_on_sequence(
                 )
                 summary = track_sequence(folder, Path(scratch) / 'ours', options)
                 table = Path(scratch) / 'ours' / 'poses.csv'
-                ours.append((read_poses(table, kind), float(summary['ms_per_frame'])))
+                ours.append((read_poses(table, kind), summary['ms_per_frame'], summary['cpu_ms_per_frame']))
                 ids.append(read_ids(table)[kind])
                 covariances.append(read_covariances(table, kind))
             cues = 'background + skin' if summary['skin'] else 'background cue'

@@ -37,14 +37,26 @@ class _RawImage:
         self.data = image.tobytes()
 
 
-def _ms_per_frame(run: Callable[[int], object], count: int, statistic: Callable = np.median) -> float:
+def _ms_per_frame(run: Callable[[int], object], count: int) -> float:
+    """Median wall-clock ms per frame, after one warm-up frame."""
     run(0)  # warm-up: JIT compilation, buffers
     times = []
     for index in range(1, count):
         start = time.perf_counter()
         run(index)
         times.append(time.perf_counter() - start)
-    return 1000.0 * float(statistic(times))
+    return 1000.0 * float(np.median(times))
+
+
+def _wall_and_cpu_ms(run: Callable[[int], object], count: int) -> tuple[float, float]:
+    """Mean wall-clock ms and mean CPU ms per frame, every thread of the process counted (the
+    face detector's runs in its own), after one warm-up frame."""
+    run(0)
+    wall, cpu = time.perf_counter(), time.process_time()
+    for index in range(1, count):
+        run(index)
+    frames = max(count - 1, 1)
+    return 1000.0 * (time.perf_counter() - wall) / frames, 1000.0 * (time.process_time() - cpu) / frames
 
 
 def stage_timings(
@@ -62,7 +74,8 @@ def stage_timings(
     tracker from the first box and two hands' starting by themselves, the second while the
     first is followed, :mod:`~human_tracker.vision.people`), all on the same frames. The
     pipelines' figures are means, not medians: the face detector runs on one frame in
-    ``detect_every``, and a median would leave it out.
+    ``detect_every``, and a median would leave it out; ``<pipeline>_cpu`` is the CPU time of
+    every thread of the process per frame, the face detector's thread included.
     """
     if scale != 1.0:
         frames = [cv2.resize(f, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA) for f in frames]
@@ -88,14 +101,16 @@ def stage_timings(
         results[f'particle_filter_{particles}'] = _ms_per_frame(lambda i, t=tracker: t.step(edges[i]), count)
     filter_parameters = TrackerParameters(num_particles=500, min_scale=24.0 * scale)
     for name, working_width in (('pipeline', TargetParameters().working_width), ('pipeline_full_size', 0)):
-        results[name] = _ms_per_frame(_pipeline(messages, boxes[0], filter_parameters, working_width), count, np.mean)
+        run = _pipeline(messages, boxes[0], filter_parameters, working_width)
+        results[name], results[f'{name}_cpu'] = _wall_and_cpu_ms(run, count)
     hand = TargetTracker(open_hand(), filter_parameters, parameters_for('hand'))
     hand.initialise_from_box(boxes[0])
     hand_width = hand.parameters.working_width
     person = PersonTracker(('head', 'hand', 'hand'), filter_parameters)
     person.initialise_from_box(boxes[0], 'head')
     for name, process in (('hand_pipeline', hand.process), ('person_pipeline', person.process)):
-        results[name] = _ms_per_frame(_skin_pipeline(messages, process, segmenter, hand_width), count, np.mean)
+        run = _skin_pipeline(messages, process, segmenter, hand_width)
+        results[name], results[f'{name}_cpu'] = _wall_and_cpu_ms(run, count)
     return {k: round(v, 3) for k, v in results.items()}
 
 

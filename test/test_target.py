@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 import pytest
 from conftest import REAL_DATA, REPO
@@ -351,8 +352,9 @@ def test_a_face_on_the_start_frame_relates_the_given_box_to_it(detector_thread: 
     """A face found on the frame a box is given on records how that very box sits on the face:
     the same face five frames later gives back the box as given, wherever the contour has moved
     since. In its own thread the detector delivers that face on the next frame, where it is
-    related to the box the start frame reported (the given box): both carried by the target's
-    predicted motion, which on a still frame is a fraction of a pixel."""
+    related to the box the start frame reported (the given box), and the later face is placed
+    by the target's predicted motion and the contour's displacement, which on a still frame are
+    a fraction of a pixel and about a pixel."""
     (frame, image), *_ = _frames('head_basic')
     given = frame.ground_truth
     face = _face_on_box(given, image)
@@ -365,7 +367,27 @@ def test_a_face_on_the_start_frame_relates_the_given_box_to_it(detector_thread: 
         assert not results[0].detections  # delivered on the next frame
     assert not np.allclose(results[5 + lag].estimate.state[:3], results[0].estimate.state[:3], atol=0.5)
     assert results[5 + lag].status == 'TRACKING'
-    np.testing.assert_allclose(results[5 + lag].estimate.box, given, atol=0.5 if detector_thread else 1e-6)
+    np.testing.assert_allclose(results[5 + lag].estimate.box, given, atol=1.0 if detector_thread else 1e-6)
+
+
+def test_a_face_delivered_late_keeps_up_with_a_moving_head() -> None:
+    """The detector's thread delivers a frame's face on the next frame. There it is placed by
+    the mean of the filter's prediction and the contour's displacement since: on a head moving
+    8 px a frame the reported box lags by about 2 px, where the damped prediction alone left it
+    3-7 px behind."""
+    (frame, image), *_ = _frames('head_basic')
+    given, speed = frame.ground_truth, 8.0
+    height, width = image.shape[:2]
+    images, truths = [], []
+    for k in range(16):
+        shift = np.float32([[1, 0, speed * k], [0, 1, 0]])
+        images.append(cv2.warpAffine(image, shift, (width, height), borderMode=cv2.BORDER_REPLICATE))
+        truths.append((given[0] + speed * k, *given[1:]))
+    tracker = _face_tracker([[_face_on_box(box, image)] for box in truths], detect_every=1)
+    tracker.initialise_from_box(given)
+    lags = [truth[0] - tracker.process(im).estimate.box[0] for im, truth in zip(images, truths, strict=True)]
+    assert np.mean(lags[2:]) < 3.0
+    assert max(np.abs(lags)) < 4.5
 
 
 @pytest.mark.parametrize('detect_every', [5, 1])

@@ -418,9 +418,9 @@ class TargetTracker:
     last_face: tuple[float, float, float, float] | None = field(default=None, init=False)
     previous_frame: np.ndarray | None = field(default=None, init=False)
     camera_motion: np.ndarray | None = field(default=None, init=False)  # (2, 3) since the last frame
-    # The box reported on the last frame (working pixels): with ``detector_thread``, the frame
-    # the faces delivered on this one were found on.
-    reported_box: Box | None = field(default=None, init=False)
+    # The state [x, y, s, θ] reported on the last frame (working pixels): with
+    # ``detector_thread``, the contour on the frame the faces delivered on this one were found on.
+    reported_state: np.ndarray | None = field(default=None, init=False, repr=False)
     start_box: tuple[float, float, float, float] | None = field(default=None, init=False)
     started_from_box: bool = field(default=False, init=False)
     detector: FaceDetector | None = field(default=None, init=False)
@@ -510,7 +510,7 @@ class TargetTracker:
         self.last_face = None
         self.detected_on = None
         self._pending = None
-        self.reported_box = None
+        self.reported_state = None
         self.previous_frame = None
         self.start_box = None
         self.started_from_box = False
@@ -708,7 +708,7 @@ class TargetTracker:
             self.status = LOST if faced else TRACKING
         shown = tuple(tuple(v / self.scale for v in d.box) for d in detections or ())
         if estimate is None:
-            self.reported_box = None
+            self.reported_state = None
             return TargetResult(self.status, None, motion_set_aside=set_aside, detections=shown)
         working_state = estimate.state
         if settled and not initialised:
@@ -724,7 +724,7 @@ class TargetTracker:
         estimate = self._to_camera(estimate)
         if self.box_relation is not None:
             estimate = replace(estimate, box=self.box_relation.box(estimate.state))
-        self.reported_box = tuple(v * self.scale for v in estimate.box)
+        self.reported_state = working_state
         weak = estimate.confidence < p.lost_confidence or on_face
         if appearance is not None and estimate.appearance_distance > p.lost_appearance_distance:
             weak = True
@@ -955,26 +955,36 @@ class TargetTracker:
         a box was given on (``given_box``, working pixels) relates to that box itself: the
         contour has already moved within the frame's filter step. A face the detector's thread
         delivers a frame late relates to the box reported on the frame it was found on
-        (``reported_box``, not yet this frame's), carried as the face was.
+        (``reported_state``), carried as the face was; once the relation is known, such a face
+        is placed on this frame by the mean of two estimates of the head's motion since: the
+        filter's prediction, which carried it (:meth:`_carried`), and the contour's own
+        displacement from the state reported then to this frame's. The prediction alone lags a
+        head that moves faster than it predicts (sunshade, walking across a panning view: 12-20 px
+        behind), the contour's displacement alone carries the contour's jitter onto the box.
         """
         (x, y, w, h), (dx, dy) = face.box, face.carried
+        # The state reported on the frame a face the detector's thread delivers late was found on.
+        then = None if self._worker is None or initialised or given_box is not None else self.reported_state
         if self.face_relation is None and self.detector is not None and self.detected_on is not None:
             # The relation is kept for the whole track: it must not carry one detection's
             # jitter. Found again where it was found, on that frame.
             localise = partial(self.detector.localise, self.detected_on, (x - dx, y - dy, w, h))
             x, y, w, h = localise() if self._worker is None else self._worker.submit(localise).result()
             x, y = x + dx, y + dy
-        face_state = np.array([x + w / 2, y + h / 2, w, 0.0])
         if self.face_relation is not None:
+            if then is not None:
+                moved = BoxRelation.of((x - dx, y - dy, w, h), then).box(state)
+                x, y, w, h = (0.5 * (a + b) for a, b in zip((x, y, w, h), moved, strict=True))
+            face_state = np.array([x + w / 2, y + h / 2, w, 0.0])
             self.box_relation = BoxRelation.of(self.face_relation.box(face_state), state)
             return
-        late = self._worker is not None and self.reported_box is not None and not initialised
+        face_state = np.array([x + w / 2, y + h / 2, w, 0.0])
         if given_box is not None:
             box = given_box
-        elif self.box_relation is not None and late:
+        elif self.box_relation is not None and then is not None:
             # The box reported on the frame the face was found on, carried like the face: the
             # relation of two things seen on one frame.
-            bx, by, bw, bh = self.reported_box
+            bx, by, bw, bh = self.box_relation.box(then)
             box = (bx + dx, by + dy, bw, bh)
         elif self.box_relation is not None:
             box = self.box_relation.box(state)

@@ -959,7 +959,7 @@ class TargetTracker:
         is placed on this frame by the mean of two estimates of the head's motion since: the
         filter's prediction, which carried it (:meth:`_carried`), and the contour's own
         displacement from the state reported then to this frame's. The prediction alone lags a
-        head that moves faster than it predicts (sunshade, walking across a panning view: 12-20 px
+        head that moves faster than it predicts (sunshade, walking across a panning view: 12-22 px
         behind), the contour's displacement alone carries the contour's jitter onto the box.
         """
         (x, y, w, h), (dx, dy) = face.box, face.carried

@@ -971,14 +971,13 @@ class TargetTracker:
             localise = partial(self.detector.localise, self.detected_on, (x - dx, y - dy, w, h))
             x, y, w, h = localise() if self._worker is None else self._worker.submit(localise).result()
             x, y = x + dx, y + dy
+        if self.face_relation is not None and then is not None:
+            moved = BoxRelation.of((x - dx, y - dy, w, h), then).box(state)
+            x, y, w, h = (0.5 * (a + b) for a, b in zip((x, y, w, h), moved, strict=True))
+        face_state = np.array([x + w / 2, y + h / 2, w, 0.0])
         if self.face_relation is not None:
-            if then is not None:
-                moved = BoxRelation.of((x - dx, y - dy, w, h), then).box(state)
-                x, y, w, h = (0.5 * (a + b) for a, b in zip((x, y, w, h), moved, strict=True))
-            face_state = np.array([x + w / 2, y + h / 2, w, 0.0])
             self.box_relation = BoxRelation.of(self.face_relation.box(face_state), state)
             return
-        face_state = np.array([x + w / 2, y + h / 2, w, 0.0])
         if given_box is not None:
             box = given_box
         elif self.box_relation is not None and then is not None:

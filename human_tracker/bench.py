@@ -254,6 +254,7 @@ def _acceptance(results: dict[str, object]) -> list[dict[str, object]]:
     scores: dict[str, dict[str, float]] = {}
     wrong: dict[str, float] = {}
     consistency: dict[str, float] = {}  # the head bags' NEES
+    held: dict[str, float] = {}  # a person's head beside a hand: the share under one id, worst run
     for row in results.get('accuracy', []):  # type: ignore[union-attr]
         tracker, sequence = str(row['tracker']), str(row['sequence'])
         kind = tracker.split(' (')[0]
@@ -263,6 +264,8 @@ def _acceptance(results: dict[str, object]) -> list[dict[str, object]]:
         if name.startswith(('ours', 'person')):
             # The worst run: a robot is told where a person is, wrongly, whichever seed it drew.
             wrong[f'{sequence} ({name})'] = float(row.get('confident_wrong_max', row.get('confident_wrong', 0.0)))
+        if 'head_one_id_min' in row:
+            held[f'{sequence} ({name})'] = float(row['head_one_id_min'])
         if name == 'ours' and sequence.startswith('head_') and 'nees_mean' in row:
             consistency[sequence] = float(row['nees_mean'])
     for sequence, by in scores.items():
@@ -278,6 +281,8 @@ def _acceptance(results: dict[str, object]) -> list[dict[str, object]]:
         check('hand2: mean precision at 20 px >= CSRT', scores['hand2']['ours'], scores['hand2'].get('CSRT', 0.0))
     for name, share in wrong.items():
         check(f'{name}: confident-wrong share, worst run <= 0.05', share, 0.05, at_most=True)
+    for name, share in held.items():
+        check(f'{name}: the head keeps one id, share of frames, worst run >= 0.9', share, 0.9)
     for sequence, nees in consistency.items():
         check(f'{sequence}: pose NEES of x, y within a factor 2 of 2', nees, (1.0, 4.0))
     for row in results.get('latency', []):  # type: ignore[union-attr]

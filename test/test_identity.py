@@ -6,7 +6,7 @@ import csv
 
 import pytest
 
-from human_tracker.evaluation.identity import identity_scores, one_track
+from human_tracker.evaluation.identity import identity_scores, one_id_share, one_track
 from human_tracker.offline import POSE_COLUMNS, read_ids
 
 BOX = (100.0, 100.0, 40.0, 40.0)
@@ -18,6 +18,14 @@ def test_a_lost_frame_and_a_new_id_by_hand() -> None:
     2 true, 2 missed (frames 3, 4), 1 false (id 2): 2 * 2 / (2 * 2 + 2 + 1) = 4 / 7."""
     scores = identity_scores({'truth': [BOX] * 4}, one_track([1, 1, 0, 2], [BOX, BOX, None, BOX]))
     assert scores == {'mota': 0.5, 'idf1': round(4 / 7, 4), 'id_switches': 1}
+
+
+def test_one_id_share_by_hand() -> None:
+    """Ten frames: id 3 on six, lost on one, id 4 on three: the head is held under one id on
+    6 of 10 frames; never reported: 0."""
+    assert one_id_share([3, 3, 3, 0, 4, 4, 4, 3, 3, 3]) == pytest.approx(0.6)
+    assert one_id_share([0, 0, 0]) == 0.0
+    assert one_id_share([]) == 0.0
 
 
 def test_far_boxes_and_unannotated_frames() -> None:

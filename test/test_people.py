@@ -22,7 +22,7 @@ from human_tracker.vision.faces import FACE_ON_HEAD, Detection
 from human_tracker.vision.people import FRESH_FACE_FRAMES, SAME_REGION, PersonTracker, kinds_of
 from human_tracker.vision.resolution import to_working
 from human_tracker.vision.skin import SkinSegmenter, default_skin_model
-from human_tracker.vision.target import TargetResult, TargetTracker, parameters_for
+from human_tracker.vision.target import SharedFrames, TargetResult, TargetTracker, WorkingFrame, parameters_for
 from human_tracker.vision.templates import head_and_shoulders, open_hand
 from human_tracker.vision.tracker import TrackerParameters, TrackEstimate
 
@@ -67,6 +67,10 @@ def test_one_kind_is_exactly_the_target_tracker() -> None:
             np.testing.assert_array_equal(got.result.estimate.state, expected.estimate.state)
 
 
+def _working_frames(shared: SharedFrames) -> int:
+    return sum(isinstance(value, WorkingFrame) for value in shared.values())
+
+
 def test_a_working_frame_computed_beforehand_gives_the_same_track() -> None:
     """A node waiting for a frame's masks computes the frame's working image, bins and edges
     meanwhile (PersonTracker.working_frame): handed over, they give the track computed without
@@ -80,9 +84,10 @@ def test_a_working_frame_computed_beforehand_gives_the_same_track() -> None:
         motion = cues.apply(to_working(to_mono8(image), 320))
         labels = skin.segment(to_working(image, 320), 0.5)
         shared = ahead.working_frame(image)
-        assert len(shared) == 1
+        assert _working_frames(shared) == 1 and ('reduced', 320) in shared
         got = ahead.process(image, motion, labels, shared)
-        assert len(shared) == 2  # the hand's own (colour edges) was added beside the head's
+        # The hand's own (colour edges) was added beside the head's, from the same reduced frame.
+        assert _working_frames(shared) == 2 and len(shared) == 3
         expected = after.process(image, motion, labels)
         assert [(o.id, o.kind, o.result.status) for o in got] == [(o.id, o.kind, o.result.status) for o in expected]
         for a, b in zip(got, expected, strict=True):
@@ -317,13 +322,15 @@ def test_a_person_started_from_a_box_is_kept_while_another_walks_past(tmp_path) 
 
 def test_a_persons_hands_reduce_the_frame_once() -> None:
     """Trackers with the same working width and edge settings share one working frame (the
-    same arrays as computing it alone); the head, which fits grey edges, has its own."""
+    same arrays as computing it alone); the head, which fits grey edges, has its own, and the
+    frame reduced to the working width once serves the head's colour bins and the hands' edges."""
     image = _frames('people_crossing', 1)[0][1]
     person = PersonTracker(('head', 'hand', 'hand'))
     head, first, second = person.trackers
-    shared: dict = {}
+    shared: SharedFrames = {}
     frames = [tracker.working_frame(image, shared) for tracker in (head, first, second)]
-    assert frames[2] is frames[1] and frames[1] is not frames[0] and len(shared) == 2
+    assert frames[2] is frames[1] and frames[1] is not frames[0] and _working_frames(shared) == 2
+    assert set(shared) - {k for k, v in shared.items() if isinstance(v, WorkingFrame)} == {('reduced', 320)}
     alone = TargetTracker(open_hand(), parameters=parameters_for('hand')).working_frame(image)
     assert all(np.array_equal(a, b) for a, b in zip(alone[:3], frames[2][:3], strict=True))
     assert frames[2].bins is None and frames[0].edges.shape == frames[2].edges.shape

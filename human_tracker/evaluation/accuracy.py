@@ -25,7 +25,7 @@ import cv2
 import numpy as np
 
 from human_tracker.evaluation.baselines import run_baseline
-from human_tracker.evaluation.identity import identity_scores, one_track
+from human_tracker.evaluation.identity import identity_scores, one_id_share, one_track
 from human_tracker.evaluation.metrics import Box, normalised_errors, summarise
 from human_tracker.io.sequences import open_sequence
 from human_tracker.offline import TrackOptions, read_covariances, read_ids, read_poses, track_sequence
@@ -86,7 +86,8 @@ def wrong_cell(row: dict[str, object]) -> str:
 def real_people_table(rows: list[dict[str, object]]) -> str:
     """Markdown table of the sequences run without a box too: ours (from the first box and
     without), the paper's tracker and OpenCV's trackers, mean precision at 20 px; for a hand,
-    ours following the whole person too (the hand scored; with its mean IDF1)."""
+    ours following the whole person too (the hand scored; with its mean IDF1 and the worst
+    run's share of frames on which the person's head kept one id)."""
     real = by_sequence_and_tracker(rows)
     columns = ['from the first box', 'confident-wrong, worst run', 'without a box', 'confident-wrong, worst run']
     columns += ["the paper's tracker, from the box", *MAIN_WHEEL_BASELINES, *CONTRIB_BASELINES]
@@ -99,9 +100,11 @@ def real_people_table(rows: list[dict[str, object]]) -> str:
         cells += [precision_cell(by.get(name), spread=False) for name in others]
         for name in ('person', 'person, no box'):
             row = by.get(name)
-            cells.append(
-                '-' if row is None else f'{precision_cell(row)} ({wrong_cell(row)}), IDF1 {row["idf1_mean"]:.2f}'
-            )
+            if row is None:
+                cells.append('-')
+                continue
+            held = f', head under one id {row["head_one_id_min"]:.2f}' if 'head_one_id_min' in row else ''
+            cells.append(f'{precision_cell(row)} ({wrong_cell(row)}), IDF1 {row["idf1_mean"]:.2f}{held}')
         lines.append(f'| {sequence} | ' + ' | '.join(cells) + ' |')
     return '\n'.join(lines) + '\n'
 
@@ -237,7 +240,7 @@ def compare_on_sequence(
         for name, start, parameters in variants:
             # The target scored: a person's bag is scored on its first track, the head's.
             kind = target if name == 'person' else kinds_of(target)[0]
-            ours, ids, covariances = [], [], []
+            ours, ids, covariances, head_ids = [], [], [], []
             for seed in SEEDS:
                 options = TrackOptions(
                     target='person' if name == 'person' else target,
@@ -251,10 +254,17 @@ def compare_on_sequence(
                 summary = track_sequence(folder, Path(scratch) / 'ours', options)
                 table = Path(scratch) / 'ours' / 'poses.csv'
                 ours.append((read_poses(table, kind), summary['ms_per_frame'], summary['cpu_ms_per_frame']))
-                ids.append(read_ids(table)[kind])
+                tracks = read_ids(table)
+                ids.append(tracks[kind])
+                if name == 'person' and kind != 'head':
+                    head_ids.append(tracks['head'])
                 covariances.append(read_covariances(table, kind))
             cues = 'background + skin' if summary['skin'] else 'background cue'
-            rows.append(_row(f'{name} ({cues}{"" if start else ", no box"})', ours, scored, ids, covariances))
+            row = _row(f'{name} ({cues}{"" if start else ", no box"})', ours, scored, ids, covariances)
+            if head_ids:
+                # A person's head beside the hand scored: how long it keeps one id, worst run.
+                row['head_one_id_min'] = round(min(one_id_share(run) for run in head_ids), 3)
+            rows.append(row)
         for name in MAIN_WHEEL_BASELINES:
             runs = [
                 run_baseline(name, (f.image for f in frames[first:]), init)

@@ -18,7 +18,7 @@ import numpy as np
 
 from human_tracker.evaluation.metrics import Box
 
-__all__ = ['identity_scores', 'one_track']
+__all__ = ['identity_scores', 'one_id_share', 'one_track']
 
 
 def _centres(boxes: Sequence[Box]) -> np.ndarray:
@@ -30,6 +30,16 @@ def one_track(ids: Sequence[int], boxes: Sequence[Box | None]) -> list[dict[int,
     if len(ids) != len(boxes):
         raise ValueError(f'{len(ids)} ids for {len(boxes)} boxes')
     return [{i: b} if b is not None and i > 0 else {} for i, b in zip(ids, boxes, strict=True)]
+
+
+def one_id_share(ids: Sequence[int]) -> float:
+    """Share of the frames on which a target is reported under its most frequent id (ids > 0;
+    0 where it is not reported): 1 for a target held under one id from the first frame to the
+    last, less for each frame it is lost or known under another id."""
+    if not ids:
+        return 0.0
+    values, counts = np.unique([i for i in ids if i > 0], return_counts=True)
+    return float(counts.max()) / len(ids) if values.size else 0.0
 
 
 def identity_scores(

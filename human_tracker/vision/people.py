@@ -44,10 +44,10 @@ from human_tracker.vision.faces import FACE_ON_HEAD
 from human_tracker.vision.target import (
     LOST,
     TRACKING,
+    SharedFrames,
     TargetParameters,
     TargetResult,
     TargetTracker,
-    WorkingFrame,
     parameters_for,
 )
 from human_tracker.vision.templates import ContourTemplate, make_template
@@ -201,10 +201,10 @@ class PersonTracker:
         w, h), camera pixels; the others start by themselves."""
         self.first(kind or self.kinds[0]).initialise_from_box(box)
 
-    def working_frame(self, image: np.ndarray) -> dict[tuple, WorkingFrame]:
+    def working_frame(self, image: np.ndarray) -> SharedFrames:
         """The first target's working frame of ``image`` (its reduced image, colour bins and
         edges), for :meth:`process`: a node waiting for the frame's masks computes it meanwhile."""
-        shared: dict[tuple, WorkingFrame] = {}
+        shared: SharedFrames = {}
         self.slots[0].tracker.working_frame(image, shared)
         return shared
 
@@ -218,7 +218,7 @@ class PersonTracker:
         image: np.ndarray,
         motion: np.ndarray | None = None,
         skin: np.ndarray | None = None,
-        shared: dict[tuple, WorkingFrame] | None = None,
+        shared: SharedFrames | None = None,
     ) -> list[TrackedTarget]:
         """Track every target on one frame (arguments as :meth:`TargetTracker.process`; beside a
         hand, the skin labels go to the hands only: a head-and-shoulders outline is not skin).

@@ -64,6 +64,7 @@ __all__ = [
     'PROPOSALS',
     'MOTION_MODES',
     'Hypothesis',
+    'SharedFrames',
     'TargetParameters',
     'TargetResult',
     'TargetTracker',
@@ -358,6 +359,11 @@ class WorkingFrame(NamedTuple):
     bins: np.ndarray | None
 
 
+# What the trackers of one frame compute once for all of them: working frames by their
+# settings, and the frame reduced to a working width by ``('reduced', width)``.
+SharedFrames = dict[tuple, 'WorkingFrame | np.ndarray']
+
+
 class _Search(NamedTuple):
     """One run of the face detector: the grey working frame it looks at, and the run."""
 
@@ -593,7 +599,7 @@ class TargetTracker:
         face: tuple[float, float, float, float] | None = None,
         exclude: Sequence[Box] = (),
         avoid: Sequence[Box] = (),
-        shared: dict[tuple, WorkingFrame] | None = None,
+        shared: SharedFrames | None = None,
     ) -> TargetResult:
         """Track on one frame.
 
@@ -761,7 +767,7 @@ class TargetTracker:
             self.status = TRACKING
         return TargetResult(self.status, estimate, initialised, set_aside, shown)
 
-    def working_frame(self, image: np.ndarray, shared: dict[tuple, WorkingFrame] | None = None) -> WorkingFrame:
+    def working_frame(self, image: np.ndarray, shared: SharedFrames | None = None) -> WorkingFrame:
         """The working image, colour bins and edges of a camera frame, taken from ``shared``
         (keyed by what they depend on) when another tracker computed them, else computed and
         put there."""
@@ -769,16 +775,24 @@ class TargetTracker:
         key = (p.working_width, p.colour_edges, p.likelihood, p.edge_blur_sigma, p.canny_low, p.canny_high)
         if shared is not None and key in shared:
             return shared[key]
-        bins = colour_bins(_exposure_gain(to_working(image, p.working_width))) if p.likelihood == 'fused' else None
-        # Grey before the reduction, as the cue stages do: a colour frame and its grey version
-        # then give the same edges.
-        if image.ndim == 3 and not p.colour_edges:
-            image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-        image = to_working(image, p.working_width)
-        grey = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-        image = _exposure_gain(image)
-        edges = edge_map(image, blur_sigma=p.edge_blur_sigma, low_threshold=p.canny_low, high_threshold=p.canny_high)
-        frame = WorkingFrame(image, grey, edges, bins)
+        reduced = gained = None
+        if p.likelihood == 'fused' or p.colour_edges or image.ndim == 2:
+            # The frame as reduced serves the colour bins and colour edges of every tracker.
+            reduced = None if shared is None else shared.get(('reduced', p.working_width))
+            if reduced is None:
+                reduced = to_working(image, p.working_width)
+            if shared is not None:
+                shared['reduced', p.working_width] = reduced
+            gained = _exposure_gain(reduced)
+        bins = colour_bins(gained) if p.likelihood == 'fused' else None
+        if reduced is None or (reduced.ndim == 3 and not p.colour_edges):
+            # Grey before the reduction, as the cue stages do: a colour frame and its grey
+            # version then give the same edges.
+            reduced = to_working(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), p.working_width)
+            gained = _exposure_gain(reduced)
+        grey = reduced if reduced.ndim == 2 else cv2.cvtColor(reduced, cv2.COLOR_BGR2GRAY)
+        edges = edge_map(gained, blur_sigma=p.edge_blur_sigma, low_threshold=p.canny_low, high_threshold=p.canny_high)
+        frame = WorkingFrame(gained, grey, edges, bins)
         if shared is not None:
             shared[key] = frame
         return frame

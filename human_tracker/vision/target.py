@@ -360,8 +360,9 @@ class WorkingFrame(NamedTuple):
 
 
 # What the trackers of one frame compute once for all of them: working frames by their
-# settings, and the frame reduced to a working width by ``('reduced', width)``.
-SharedFrames = dict[tuple, 'WorkingFrame | np.ndarray']
+# settings, and by ``('reduced', width)`` the frame reduced to a working width, as it is and
+# brightened (``_exposure_gain``).
+SharedFrames = dict[tuple, 'WorkingFrame | tuple[np.ndarray, np.ndarray]']
 
 
 class _Search(NamedTuple):
@@ -777,13 +778,15 @@ class TargetTracker:
             return shared[key]
         reduced = gained = None
         if p.likelihood == 'fused' or p.colour_edges or image.ndim == 2:
-            # The frame as reduced serves the colour bins and colour edges of every tracker.
-            reduced = None if shared is None else shared.get(('reduced', p.working_width))
-            if reduced is None:
+            # The frame as reduced and brightened serves the colour bins and colour edges of
+            # every tracker.
+            pair = None if shared is None else shared.get(('reduced', p.working_width))
+            if pair is None:
                 reduced = to_working(image, p.working_width)
-            if shared is not None:
-                shared['reduced', p.working_width] = reduced
-            gained = _exposure_gain(reduced)
+                pair = (reduced, _exposure_gain(reduced))
+                if shared is not None:
+                    shared['reduced', p.working_width] = pair
+            reduced, gained = pair
         bins = colour_bins(gained) if p.likelihood == 'fused' else None
         if reduced is None or (reduced.ndim == 3 and not p.colour_edges):
             # Grey before the reduction, as the cue stages do: a colour frame and its grey

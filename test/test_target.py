@@ -289,6 +289,30 @@ def test_a_target_found_by_itself_looks_for_its_face_on_the_whole_frame_after_on
     assert calls == ['near', 'near', 'near', 'frame']
 
 
+def test_the_search_around_a_tracked_face_reaches_face_search_reach_sizes() -> None:
+    """The crop around the predicted face reaches ``face_search_reach`` face sizes each way
+    (a head 50 px wide at (160, 120) has its face 40 px wide at (160, 126): FACE_ON_HEAD),
+    zoomed so that the face is just detectable; a reach of 0 is refused."""
+    with pytest.raises(ValueError, match='face_search_reach'):
+        TargetParameters(face_search_reach=0.0).validate()
+    found = {}
+    for reach in (2.0, 1.5):
+        parameters = TargetParameters(face_search_reach=reach)
+        tracker = TargetTracker(head_and_shoulders(), TrackerParameters(seed=0), parameters)
+        if tracker.detector is None:
+            pytest.skip('dlib is not installed')
+        crops = []
+        tracker.detector.detect = lambda image, upsample, c=crops: c.append(image.shape) or []
+        tracker.filter.initialise(np.array([160.0, 120.0, 50.0, 0.0]))
+        tracker.status = 'TRACKING'
+        tracker._face_search(np.zeros((240, 320), np.uint8))()
+        found[reach] = crops[0]
+    # 2 * reach * 40 px across, zoomed by 80 / (0.9 * 40).
+    zoom = 80.0 / 36.0
+    assert found[2.0][1] == pytest.approx(160 * zoom, abs=2)
+    assert found[1.5][1] == pytest.approx(120 * zoom, abs=2)
+
+
 @pytest.mark.parametrize(('proposals', 'comes_back'), [('off', True), ('faces', False)])
 def test_a_lost_head_comes_back_on_edges_alone_only_without_a_face_detector(proposals: str, comes_back: bool) -> None:
     """With no region cue, a lost target whose contour fits again is TRACKING again after one

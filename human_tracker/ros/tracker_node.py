@@ -114,6 +114,7 @@ TARGET_PARAMETERS = (
     ParameterSpec('avoid_faces', 'A hand: a contour on a detected face is weak; no hypothesis there.', runtime=False),
     ParameterSpec('detect_every', 'Run the face detector on every this many frames.', 1, 100000),
     ParameterSpec('patient_every', 'Frames between face detector runs once several found no face.', 1, 100000),
+    ParameterSpec('face_search_reach', 'Face sizes around the predicted face the detector looks within.', 0.5, 10.0),
     ParameterSpec('detector_thread', 'Face detector in its own thread; its faces serve the next frame.', runtime=False),
     ParameterSpec('compensate_camera', "Carry the particles with the camera's own image motion before predicting."),
     ParameterSpec(

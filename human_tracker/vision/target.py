@@ -129,6 +129,11 @@ class TargetParameters:
             while tracking, on the whole working frame while searching).
         patient_every: Once ``PATIENT_SEARCHES`` runs in a row found no face, let at least this
             many frames pass between runs.
+        face_search_reach: While the head is tracked the detector looks within this many
+            face sizes of the predicted face; a run's time goes with its square. 1.5 costs a
+            third less on real faces at the same precision on the six real heads, but a
+            person's hand, kept off the face its head finds, was confidently wrong more often
+            on hand2 (docs/evaluation.md).
         detector_thread: Run the detector in its own thread: a run on frame k goes on while
             the tracker finishes frame k and the next frame arrives, and its faces are used on
             frame k + 1, which waits for them (a replay gives the same track on any machine).
@@ -195,6 +200,7 @@ class TargetParameters:
     proposals: str = 'faces'
     detect_every: int = 1
     patient_every: int = 8
+    face_search_reach: float = 2.0
     detector_thread: bool = True
     avoid_faces: bool = False
     compensate_camera: bool = False
@@ -241,6 +247,8 @@ class TargetParameters:
             raise ValueError(f'detect_every must be >= 1, got {self.detect_every}')
         if self.patient_every < 1:
             raise ValueError(f'patient_every must be >= 1, got {self.patient_every}')
+        if not self.face_search_reach > 0.0:
+            raise ValueError(f'face_search_reach must be > 0, got {self.face_search_reach}')
         if self.appearance_parts < 1:
             raise ValueError(f'appearance_parts must be >= 1, got {self.appearance_parts}')
         for name in ('adaptation_rate', 'lost_appearance_distance'):
@@ -926,7 +934,8 @@ class TargetTracker:
         patience = SEARCH_AFTER_MISSES if self.started_from_box else 1
         if tracked and self.face_misses < patience:
             predicted = self.filter.particles.mean(axis=0)
-            return partial(self.detector.detect_near, grey, FACE_ON_HEAD.box(predicted))
+            reach = self.parameters.face_search_reach
+            return partial(self.detector.detect_near, grey, FACE_ON_HEAD.box(predicted), reach=reach)
         self.face_misses = 0
         if self.last_face is not None and self.last_face[2] < SMALLEST_FACE_IN_FRAME:
             # A face too small for the whole-frame search: look around where it was last seen.

@@ -12,6 +12,7 @@ does for a robot that keys what it knows of a person by the id.
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -36,10 +37,8 @@ def one_id_share(ids: Sequence[int]) -> float:
     """Share of the frames on which a target is reported under its most frequent id (ids > 0;
     0 where it is not reported): 1 for a target held under one id from the first frame to the
     last, less for each frame it is lost or known under another id."""
-    if not ids:
-        return 0.0
-    values, counts = np.unique([i for i in ids if i > 0], return_counts=True)
-    return float(counts.max()) / len(ids) if values.size else 0.0
+    counts = Counter(i for i in ids if i > 0)
+    return max(counts.values(), default=0) / len(ids) if ids else 0.0
 
 
 def identity_scores(

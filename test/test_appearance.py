@@ -18,14 +18,14 @@ from human_tracker.vision.appearance import (
     region_histograms,
 )
 from human_tracker.vision.boxes import BoxRelation
-from human_tracker.vision.faces import Detection, FaceDetector, _overlap, face_detector_available
+from human_tracker.vision.faces import FACE_ON_HEAD, Detection, FaceDetector, _overlap, face_detector_available
 from human_tracker.vision.proposals import (
     detection_log_likelihood,
     draw_with_proposals,
     log_prior_density,
     log_proposal_density,
 )
-from human_tracker.vision.target import TRACKING, TargetParameters, TargetTracker
+from human_tracker.vision.target import FRESH_FACE_FRAMES, TRACKING, TargetParameters, TargetTracker
 from human_tracker.vision.templates import head_and_shoulders
 from human_tracker.vision.tracker import TrackEstimate
 
@@ -266,6 +266,35 @@ def test_a_face_off_the_contour_restarts_only_a_target_found_by_itself() -> None
     tracker.initialise_from_box((90.0, 95.0, 30.0, 30.0))
     assert tracker._restart_on_face(faces, None, estimate, unlike) is None
     assert tracker._restart_on_face(faces, None, estimate, alike) == 0
+
+
+def test_a_head_whose_face_was_just_seen_restarts_only_on_a_face_of_its_size() -> None:
+    """While a head found by itself has a fresh face (found within FRESH_FACE_FRAMES), a face
+    elsewhere restarts it only within FACE_SIZE_CHANGE of that face's size or near where it was:
+    30 px against 40 is 0.75 (out, 120 px away), 44 px is 1.1 (in); 30 px 5 px from it (in).
+    Once the face is stale, the best face again."""
+    tracker = TargetTracker(head_and_shoulders(), parameters=TargetParameters(proposals='off'))
+    estimate = TrackEstimate(
+        np.array([100.0, 100.0, 50.0, 0.0]),
+        np.eye(4),
+        0.9,
+        0.9,
+        100.0,
+        (75.0, 68.0, 50.0, 62.5),
+        np.zeros((1, 2)),
+        0.0,
+        0.3,
+    )
+    tracker.status = TRACKING
+    tracker._anchor_on_face(Detection((80.0, 90.0, 40.0, 40.0), 1.0), estimate.state)
+    tracker.last_face, tracker.frames_without_own_face = (80.0, 90.0, 40.0, 40.0), FRESH_FACE_FRAMES
+    smaller, alike = FACE_ON_HEAD.state((200.0, 100.0, 30.0, 30.0)), FACE_ON_HEAD.state((20.0, 100.0, 44.0, 44.0))
+    assert tracker._restart_on_face(np.array([smaller]), None, estimate, None) is None
+    assert tracker._restart_on_face(np.array([smaller, alike]), None, estimate, None) == 1
+    there = FACE_ON_HEAD.state((85.0, 90.0, 30.0, 30.0))
+    assert tracker._restart_on_face(np.array([smaller, there]), None, estimate, None) == 1
+    tracker.frames_without_own_face = FRESH_FACE_FRAMES + 1
+    assert tracker._restart_on_face(np.array([smaller, alike]), None, estimate, None) == 0
 
 
 def test_box_overlap_by_hand() -> None:

@@ -19,10 +19,17 @@ from human_tracker.scenes.generator import PEOPLE_TARGETS, SCENES, render_scene
 from human_tracker.vision.background import BackgroundModel
 from human_tracker.vision.boxes import box_centre, centre_within
 from human_tracker.vision.faces import FACE_ON_HEAD, Detection
-from human_tracker.vision.people import FRESH_FACE_FRAMES, SAME_REGION, PersonTracker, kinds_of
+from human_tracker.vision.people import SAME_REGION, PersonTracker, kinds_of
 from human_tracker.vision.resolution import to_working
 from human_tracker.vision.skin import SkinSegmenter, default_skin_model
-from human_tracker.vision.target import SharedFrames, TargetResult, TargetTracker, WorkingFrame, parameters_for
+from human_tracker.vision.target import (
+    FRESH_FACE_FRAMES,
+    SharedFrames,
+    TargetResult,
+    TargetTracker,
+    WorkingFrame,
+    parameters_for,
+)
 from human_tracker.vision.templates import head_and_shoulders, open_hand
 from human_tracker.vision.tracker import TrackerParameters, TrackEstimate
 

@@ -42,6 +42,7 @@ import numpy as np
 from human_tracker.vision.boxes import box_centre, centre_within
 from human_tracker.vision.faces import FACE_ON_HEAD
 from human_tracker.vision.target import (
+    FRESH_FACE_FRAMES,
     LOST,
     TRACKING,
     SharedFrames,
@@ -58,10 +59,6 @@ __all__ = ['KINDS', 'TARGETS', 'PersonTracker', 'TrackedTarget', 'kinds_of', 'ta
 KINDS = ('head', 'hand')
 TARGETS = (*KINDS, 'person')
 """What a tracker follows: one head, one hand, or a person (a head and hands)."""
-
-# A head's contour tells the hand where the face is only while its face was found on it within
-# this many frames: a head that slid onto the raised arm (hand2) would send the hand to the face.
-FRESH_FACE_FRAMES = 4
 
 # Two targets of a kind are on one region when the centre of one lies in this central share of
 # the other's box: for heads its half (a head behind another overlaps its box more than

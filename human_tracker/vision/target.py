@@ -88,6 +88,12 @@ START_OFFSETS = (tuple(np.round(np.linspace(-0.3, 0.3, 7), 2)), tuple(np.round(n
 # contour shrinking onto the face or the hair must still find its face (interview_alberto).
 FACE_MATCH_DISTANCE = 0.75
 FACE_MATCH_SIZE = 1.75
+# A head's own face is fresh while it was found within this many frames: a face found away from
+# the head then restarts it only within FACE_SIZE_CHANGE of that face's size or near where it
+# was, and a hand is handed where the contour puts the face (people.py; a head that slid onto
+# the raised arm would send the hand to the face).
+FRESH_FACE_FRAMES = 4
+FACE_SIZE_CHANGE = 1.25
 # Detector runs near the track in a row that found no face on it before one searches the
 # whole frame.
 SEARCH_AFTER_MISSES = 3
@@ -1029,7 +1035,8 @@ class TargetTracker:
         """Which detection (index into ``states``) restarts the filter, or None.
 
         The best one when there is no target, when the target is weak, or when the target was
-        found by itself (not started from a box) and the face is not on it. While a target
+        found by itself (not started from a box) and the face is not on it (while its own face
+        is fresh, the best that could be that face: :meth:`_first_like_own_face`). While a target
         started from a box is tracked without its face, a face that looks more like the target
         than the estimate does (a contour that slid onto clutter, or shrank onto part of the head).
         """
@@ -1039,13 +1046,32 @@ class TargetTracker:
             return None
         if not self.started_from_box:
             # A target found by itself is a head by its face: without its face, this one is.
-            return 0
+            return self._first_like_own_face(states)
         if appearance is None:
             return None
         distances = np.sqrt(appearance(states))
         k = int(np.argmin(distances))
         limit = min(self.parameters.lost_appearance_distance, estimate.appearance_distance)
         return k if distances[k] < limit else None
+
+    def _first_like_own_face(self, states: np.ndarray) -> int | None:
+        """The first of ``states`` (faces' head states, best first) that could be the head's own
+        face when that was found within ``FRESH_FACE_FRAMES`` frames: within a factor
+        ``FACE_SIZE_CHANGE`` of its size, or within ``FACE_MATCH_DISTANCE`` of its widths of where
+        it was (a face half out of the frame is found at other sizes); None when none could. The
+        first when the head's face is not fresh. A face does not change size that much in a few
+        frames: one of another size elsewhere is someone else's, or the detector's mistake while
+        a hand hides this one (hand2: papers on the desk behind, 30 px against the face's 42,
+        took the head away from its person for 56 frames)."""
+        fresh = self.face_relation is not None and self.frames_without_own_face <= FRESH_FACE_FRAMES
+        if not fresh or self.last_face is None:
+            return 0
+        own = FACE_ON_HEAD.state(self.last_face)
+        ratios = states[:, 2] / own[2]
+        alike = (ratios >= 1 / FACE_SIZE_CHANGE) & (ratios <= FACE_SIZE_CHANGE)
+        near = np.hypot(*(states[:, :2] - own[:2]).T) <= FACE_MATCH_DISTANCE * self.last_face[2]
+        could = np.flatnonzero(alike | near)
+        return int(could[0]) if could.size else None
 
     def _own_region(self) -> BoxRelation:
         """The region whose colours are the target's after an automatic start: the template's

@@ -13,6 +13,7 @@ from human_tracker.evaluation.metrics import centre_errors
 from human_tracker.offline import TrackOptions, track_sequence
 from human_tracker.scenes.generator import SCENES, render_scene
 from human_tracker.vision.background import BackgroundModel
+from human_tracker.vision.faces import Detection
 from human_tracker.vision.skin import SkinSegmenter, default_skin_model
 from human_tracker.vision.target import TargetTracker, parameters_for
 from human_tracker.vision.templates import open_hand
@@ -105,3 +106,34 @@ def test_a_contour_on_the_face_found_last_is_lost(face_on_hand: bool) -> None:
         assert statuses[:5] == ['TRACKING'] * 4 + ['LOST']
     else:
         assert statuses == ['TRACKING'] * 12
+
+
+class _FaceOnTheHand:
+    """A face detector that finds a face wherever the hand is on the frame it runs on (``box``,
+    working pixels), or nowhere when ``box`` is None."""
+
+    box: tuple[float, float, float, float] | None = None
+
+    def detect(self, image: np.ndarray, upsample: int = 1) -> list[Detection]:
+        return [] if self.box is None else [Detection(self.box, 1.0)]
+
+    def detect_near(self, image: np.ndarray, box: tuple[float, ...], reach: float = 2.0) -> list[Detection]:
+        return self.detect(image)
+
+
+@pytest.mark.parametrize('seen', [True, False])
+def test_a_face_found_under_the_hand_on_this_frame_makes_it_lost_at_once(seen: bool) -> None:
+    """A face the hand's own detector sees where the hand's box is centred is not hidden by the
+    hand: the contour is on the face, LOST on the frame the detector runs on (the first; without
+    its thread), not after lost_frames (5)."""
+    frames = list(render_scene(SCENES['hand_wave']))[:4]
+    tracker = TargetTracker(open_hand(), TrackerParameters(), dataclasses.replace(HAND, detector_thread=False))
+    detector = tracker.detector = _FaceOnTheHand()
+    segmenter, background = SkinSegmenter(default_skin_model()), BackgroundModel()
+    tracker.initialise_from_box(frames[0].box)
+    statuses = []
+    for frame in frames:
+        detector.box = tuple(0.5 * v for v in frame.box) if seen else None  # 640 px frames work at 320
+        gray = cv2.cvtColor(frame.image, cv2.COLOR_BGR2GRAY)
+        statuses.append(tracker.process(frame.image, background.apply(gray), segmenter.segment(frame.image)).status)
+    assert statuses[0] == ('LOST' if seen else 'TRACKING')

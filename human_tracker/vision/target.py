@@ -739,6 +739,10 @@ class TargetTracker:
             self.box_relation = BoxRelation.of(given_box, working_state)
         own_face = [self.last_face] if self.face_misses == 0 and self.last_face is not None else []
         on_face = p.avoid_faces and any(centre_within(estimate.box, _face_and_neck(f)) for f in own_face + avoid)
+        # A face this frame's own detector run found under the contour's centre is not hidden by
+        # the hand, so the contour is on the face: LOST at once, not after `lost_frames`. (A face
+        # found before, or handed over, may be behind the hand now: that is only a weak frame.)
+        seen_on_face = p.avoid_faces and any(centre_within(estimate.box, d.box) for d in detections or ())
         if face is not None and self.status == TRACKING:
             self._anchor_on_face(face, working_state, given_box, initialised)
             self.last_face = face.box
@@ -767,7 +771,7 @@ class TargetTracker:
                 # A target found in a region (X_0 is coarse) is learnt once the contour is on
                 # it: once no hypothesis could beat its support.
                 self.appearance = AppearanceModel.learn(bins, working_state, self._own_region(), p.appearance_parts)
-        if self.weak_frames >= p.lost_frames:
+        if self.weak_frames >= p.lost_frames or seen_on_face:
             self.status = LOST
         elif self.status == LOST and (
             (self.weak_frames == 0 and region is None and not (p.proposals == 'faces' and self.detector is not None))
@@ -1036,7 +1040,7 @@ class TargetTracker:
 
         The best one when there is no target, when the target is weak, or when the target was
         found by itself (not started from a box) and the face is not on it (while its own face
-        is fresh, the best that could be that face: :meth:`_first_like_own_face`). While a target
+        is fresh, the best that could be that face: :meth:`_could_be_own_face`). While a target
         started from a box is tracked without its face, a face that looks more like the target
         than the estimate does (a contour that slid onto clutter, or shrank onto part of the head).
         """
@@ -1046,7 +1050,7 @@ class TargetTracker:
             return None
         if not self.started_from_box:
             # A target found by itself is a head by its face: without its face, this one is.
-            return self._first_like_own_face(states)
+            return self._could_be_own_face(states)
         if appearance is None:
             return None
         distances = np.sqrt(appearance(states))
@@ -1054,7 +1058,7 @@ class TargetTracker:
         limit = min(self.parameters.lost_appearance_distance, estimate.appearance_distance)
         return k if distances[k] < limit else None
 
-    def _first_like_own_face(self, states: np.ndarray) -> int | None:
+    def _could_be_own_face(self, states: np.ndarray) -> int | None:
         """The first of ``states`` (faces' head states, best first) that could be the head's own
         face when that was found within ``FRESH_FACE_FRAMES`` frames: within a factor
         ``FACE_SIZE_CHANGE`` of its size, or within ``FACE_MATCH_DISTANCE`` of its widths of where

@@ -138,7 +138,7 @@ class TargetParameters:
         face_search_reach: While the head is tracked the detector looks within this many
             face sizes of the predicted face; a run's time goes with its square. 1.5 costs a
             third less on real faces at the same precision on the six real heads, but hand2
-            as a person lost precision on its hand from the hand's box (0.452 -> 0.423) and had
+            as a person lost precision on its hand (from the hand's box 0.435 -> 0.427) and had
             more runs with the hand confidently wrong over 5 % of the time (docs/evaluation.md).
         detector_thread: Run the detector in its own thread: a run on frame k goes on while
             the tracker finishes frame k and the next frame arrives, and its faces are used on

@@ -271,7 +271,7 @@ def test_a_face_off_the_contour_restarts_only_a_target_found_by_itself() -> None
 def test_a_head_whose_face_was_just_seen_restarts_only_on_a_face_of_its_size() -> None:
     """While a head found by itself has a fresh face (found within FRESH_FACE_FRAMES), a face
     elsewhere restarts it only within FACE_SIZE_CHANGE of that face's size or near where it was:
-    30 px against 40 is 0.75 (out, 120 px away), 44 px is 1.1 (in); 30 px 5 px from it (in).
+    30 px against 40 is 0.75 (out, about 115 px away), 44 px is 1.1 (in); 30 px 5 px from it (in).
     Once the face is stale, the best face again."""
     tracker = TargetTracker(head_and_shoulders(), parameters=TargetParameters(proposals='off'))
     estimate = TrackEstimate(

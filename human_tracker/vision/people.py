@@ -42,7 +42,6 @@ import numpy as np
 from human_tracker.vision.boxes import box_centre, centre_within
 from human_tracker.vision.faces import FACE_ON_HEAD
 from human_tracker.vision.target import (
-    FRESH_FACE_FRAMES,
     LOST,
     TRACKING,
     SharedFrames,
@@ -322,5 +321,4 @@ class PersonTracker:
         """Where the person's face is (x, y, w, h, camera pixels): where the head's contour puts it
         while a face has just been found on it, else None (a head that slid onto the raised arm
         would send the hand to the face): the hand's own detector looks then."""
-        fresh = head.last_face is not None and head.frames_without_own_face <= FRESH_FACE_FRAMES
-        return FACE_ON_HEAD.box(result.estimate.state) if result.tracking and fresh else None
+        return FACE_ON_HEAD.box(result.estimate.state) if result.tracking and head.has_fresh_face else None

@@ -465,6 +465,11 @@ class TargetTracker:
         return self.parameters.proposals == 'faces' or self.parameters.avoid_faces
 
     @property
+    def has_fresh_face(self) -> bool:
+        """Whether a head's own face was found on it within ``FRESH_FACE_FRAMES`` frames."""
+        return self.last_face is not None and self.frames_without_own_face <= FRESH_FACE_FRAMES
+
+    @property
     def proposals_problem(self) -> str | None:
         """Why the face detector asked for is off (dlib missing), or None."""
         if self._wants_faces and self.detector is None:
@@ -1067,8 +1072,7 @@ class TargetTracker:
         frames: one of another size elsewhere is someone else's, or the detector's mistake while
         a hand hides this one (hand2: papers on the desk behind, 30 px against the face's 42,
         took the head away from its person for 56 frames)."""
-        fresh = self.face_relation is not None and self.frames_without_own_face <= FRESH_FACE_FRAMES
-        if not fresh or self.last_face is None:
+        if not self.has_fresh_face:
             return 0
         own = FACE_ON_HEAD.state(self.last_face)
         ratios = states[:, 2] / own[2]

@@ -84,37 +84,6 @@ def test_a_face_is_cut_from_the_regions_hypotheses_come_from() -> None:
     assert np.count_nonzero(skin == 0) == 0  # the skin labels given are left as they are
 
 
-@pytest.mark.parametrize('floor_moves', [False, True])
-def test_skin_that_stands_still_starts_no_hand(floor_moves: bool) -> None:
-    """A skin-coloured floor labelled on every frame gives an X_0 until it has stood still for
-    most of about still_skin_frames (20) frames; a new skin region does at once. The labels'
-    running mean passes one half on the 14th frame (1 - 0.95^14 = 0.51); where the motion
-    mask lies, it is not updated."""
-    tracker = TargetTracker(open_hand(), TrackerParameters(), HAND)
-    tracker.detector = None
-    assert HAND.still_skin_frames == 20
-    image = np.zeros((240, 320, 3), np.uint8)
-    floor = np.zeros((240, 320), np.uint8)
-    floor[150:240, 0:90] = 255
-    motion = np.zeros_like(floor)
-    if floor_moves:
-        motion[140:240, 0:100] = 255  # the background cue's mask over the floor (a person beside it)
-    hand = np.zeros_like(floor)
-    hand[40:100, 200:245] = 255  # a hand-sized region never seen before
-    with_hand = floor | hand
-    starts = []
-    for _ in range(14):
-        tracker.process(image, motion, floor)
-        starts.append(len(tracker.initial_states(floor)))
-    assert starts == [1] * 13 + [0 if not floor_moves else 1]
-    found = tracker.initial_states(with_hand)
-    if floor_moves:
-        assert len(found) == 2
-    else:
-        # The hand's X_0, as if the floor were not labelled.
-        assert len(found) == 1 and np.array_equal(found[0], tracker.initial_states(hand)[0])
-
-
 @pytest.mark.parametrize('face_on_hand', [True, False])
 def test_a_contour_on_the_face_found_last_is_lost(face_on_hand: bool) -> None:
     """A detected face where the hand's contour is: weak frames, LOST after lost_frames (5)."""

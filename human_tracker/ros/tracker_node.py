@@ -172,12 +172,6 @@ TARGET_PARAMETERS = (
         0.0,
         1.0,
     ),
-    ParameterSpec(
-        'still_skin_frames',
-        'With skin regions as X_0: leave out regions that were skin for most of about this many frames; 0: off.',
-        0,
-        100000,
-    ),
     ParameterSpec('lost_frames', 'Consecutive weak frames after which the target is lost.', 1, 100000),
     ParameterSpec('colour_edges', 'Detect edges on the colour image (strongest channel), not on its intensity.'),
     ParameterSpec('edge_blur_sigma', 'Gaussian pre-filter of the edge detector, pixels.', 0.0, 20.0),

@@ -22,19 +22,8 @@ from human_tracker.vision.templates import ContourTemplate
 __all__ = ['blobs', 'first_local_maximum', 'largest_blob', 'moments_state', 'state_from_moments', 'state_from_scan']
 
 
-def blobs(
-    mask: np.ndarray, min_area: int = 1, limit: int = 1, still: np.ndarray | None = None, max_still_share: float = 0.8
-) -> list[np.ndarray]:
+def blobs(mask: np.ndarray, min_area: int = 1, limit: int = 1) -> list[np.ndarray]:
     """The ``limit`` largest 8-connected regions of ``min_area`` pixels or more, largest first.
-
-    Args:
-        mask: ``(H, W)`` non-zero on the regions' pixels.
-        min_area: Smallest region, pixels.
-        limit: Most regions returned.
-        still: Optional ``(H, W) bool``: regions with more than ``max_still_share`` of their
-            pixels on it are left out (skin-coloured things that stand still; a hand over a
-            few of them is kept).
-        max_still_share: See ``still``.
 
     Returns:
         Boolean images, one per region (empty when there is none).
@@ -45,9 +34,6 @@ def blobs(
     label_type = cv2.CV_16U if cells < np.iinfo(np.uint16).max else cv2.CV_32S
     count, labels, stats, _ = cv2.connectedComponentsWithStats(binary, connectivity=8, ltype=label_type)
     areas = stats[1:, cv2.CC_STAT_AREA]
-    if still is not None:
-        still_areas = np.bincount(labels[still], minlength=count)[1:]
-        areas = np.where(still_areas > max_still_share * areas, 0, areas)
     order = [int(i) for i in np.argsort(-areas, kind='stable')[:limit] if areas[i] >= min_area]
     return [labels == i + 1 for i in order]
 

@@ -187,11 +187,6 @@ class TargetParameters:
         init_motion_support: With a motion mask, the fraction of a hypothesis's contour
             points on it that the hypothesis needs to start the filter: for a hand, found
             among the skin regions that move, not on skin-coloured things that stand still.
-        still_skin_frames: With ``init_region: skin``, a skin region four fifths of whose
-            pixels were labelled skin on most of about this many past frames (a running mean
-            of the labels, not updated under the motion mask, above one half) gives no X_0:
-            a wooden floor or a skin-coloured wall stands still, a hand that comes back
-            moves. 0: every skin region does.
         lost_frames: Consecutive weak frames after which the target is lost.
         colour_edges: Detect edges on the colour image (strongest channel per pixel) when
             ``process`` is given one, not on its intensity.
@@ -232,7 +227,6 @@ class TargetParameters:
     lost_motion_support: float = 0.0
     lost_skin_support: float = 0.0
     init_motion_support: float = 0.0
-    still_skin_frames: int = 0
     lost_frames: int = 5
     colour_edges: bool = False
     edge_blur_sigma: float = 1.5
@@ -284,10 +278,8 @@ class TargetParameters:
         for name in ('lost_confidence', 'lost_motion_support', 'lost_skin_support', 'init_motion_support'):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ValueError(f'{name} must be in [0, 1], got {getattr(self, name)}')
-        if self.lost_frames < 1 or self.still_skin_frames < 0:
-            raise ValueError(
-                f'need lost_frames >= 1 and still_skin_frames >= 0, got {self.lost_frames}, {self.still_skin_frames}'
-            )
+        if self.lost_frames < 1:
+            raise ValueError(f'lost_frames must be >= 1, got {self.lost_frames}')
         if self.canny_low < 0 or self.canny_high < self.canny_low:
             raise ValueError(f'need 0 <= canny_low <= canny_high, got {self.canny_low}, {self.canny_high}')
         if self.working_width < 0:
@@ -340,9 +332,6 @@ def parameters_for(target: str) -> TargetParameters:
             # (0.40 -> 0.36, 5 seeds).
             detect_every=5,
             patient_every=20,
-            # Skin that stands still is the scene's: on hand2's wooden floor and drawers the
-            # hand was reported on 77 frames of 16 runs in 80, with this on 12 frames of 9.
-            still_skin_frames=20,
         )
     return TargetParameters()
 
@@ -459,8 +448,6 @@ class TargetTracker:
     frames: int = field(default=0, init=False)
     searched_on: int = field(default=0, init=False)  # the frame of the detector's last run
     detected_on: np.ndarray | None = field(default=None, init=False, repr=False)  # the grey frame of the last run
-    # The running mean of the skin labels (``still_skin_frames``), 0..255 at the working size.
-    skin_history: np.ndarray | None = field(default=None, init=False, repr=False)
     # The detector's thread (``detector_thread``) and the run it has not delivered yet.
     _worker: ThreadPoolExecutor | None = field(default=None, init=False, repr=False)
     _pending: tuple[_Search, Future[list[Detection]]] | None = field(default=None, init=False, repr=False)
@@ -548,7 +535,6 @@ class TargetTracker:
         self.frames_without_own_face = 0
         self.last_face = None
         self.detected_on = None
-        self.skin_history = None
         self._pending = None
         self.reported_state = None
         self.previous_frame = None
@@ -584,10 +570,7 @@ class TargetTracker:
             # tight mask so that still edges next to a moving person do not count as moving.
             region = cv2.morphologyEx(region, cv2.MORPH_CLOSE, disk(p.region_closing))
         if p.init_method == 'moments':
-            # Skin regions that stood still are the scene's (``still_skin_frames``).
-            still = None if self.skin_history is None or p.init_region != 'skin' else self.skin_history > 127.5
-            found = blobs(region, p.min_blob_area, p.hypothesis_blobs, still)
-            return [moments_state(b, self.template) for b in found]
+            return [moments_state(b, self.template) for b in blobs(region, p.min_blob_area, p.hypothesis_blobs)]
         start = state_from_scan(region, self.template, upright_angle=p.upright_angle, min_area=p.min_blob_area)
         return [] if start is None else [start]
 
@@ -669,7 +652,6 @@ class TargetTracker:
         if set_aside:
             motion = None
         skin = self._at_working('skin labels', skin, image.shape[:2])
-        self._remember_skin(skin, motion)
         handed = face is not None and p.avoid_faces
         if handed:
             self.last_face, self.face_misses = tuple(v * self.scale for v in face), 0
@@ -1139,18 +1121,6 @@ class TargetTracker:
         far = np.hypot(*(found.state[:2] - estimate.state[:2])) > 0.5 * estimate.state[2]
         fits = found.confidence >= p.lost_confidence
         return far and fits and found.motion_support >= estimate.motion_support + p.switch_margin
-
-    def _remember_skin(self, skin: np.ndarray | None, motion: np.ndarray | None) -> None:
-        """Add this frame's skin labels off the motion mask to the running mean of ``still_skin_frames``."""
-        frames = self.parameters.still_skin_frames
-        if skin is None or frames == 0:
-            return
-        if self.skin_history is None or self.skin_history.shape != skin.shape:
-            self.skin_history = np.zeros(skin.shape, dtype=np.float32)
-        # Where something moves, what the labels say there belongs to it, not to the scene
-        # (a hand waving over one place keeps it skin for most frames).
-        still = None if motion is None else cv2.compare(motion, 0, cv2.CMP_EQ)
-        cv2.accumulateWeighted(cv2.compare(skin, 0, cv2.CMP_GT), self.skin_history, 1.0 / frames, still)
 
     def _to_camera_factors(self) -> np.ndarray:
         """Per-component factors taking a state [x, y, s, θ] from working to camera pixels."""

@@ -131,7 +131,7 @@ class SkinModel:
 
     def distance(self, chroma: np.ndarray) -> np.ndarray:
         """Distance of ``(..., 2)`` (I2, I3) values to the nearest class; shape ``(...)``."""
-        return np.min([c.distance(chroma) for c in self.classes], axis=0)
+        return self._nearest(chroma)[0]
 
     @functools.cached_property
     def distance_table(self) -> np.ndarray:
@@ -140,13 +140,25 @@ class SkinModel:
         ``(511, 1021) float32``, indexed by ``(R - B + 255, 2G - R - B + 510)``: I2 and I3 are
         those integers over 2 and 4, so the table is exact for every pixel.
         """
-        means = np.array([c.mean for c in self.classes])
-        inverses = np.array([c._inverse for c in self.classes])
-        return _distance_table(means, inverses)
+        return _distance_table(*self._arrays)
 
     def nearest(self, chroma: np.ndarray) -> np.ndarray:
         """Index of the nearest class for ``(..., 2)`` (I2, I3) values; shape ``(...)``."""
-        return np.argmin([c.distance(chroma) for c in self.classes], axis=0)
+        return self._nearest(chroma)[1]
+
+    def _nearest(self, chroma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Distance to the nearest class and its index, as :meth:`distance` and :meth:`nearest`."""
+        chroma = np.asarray(chroma, dtype=np.float64)
+        shape = chroma.shape[:-1]
+        # One pass over the values in numba: numpy's per-class arrays took 0.3 ms for the
+        # 4,800 cells of a 320x240 frame.
+        distances, indices = _nearest_class(np.ascontiguousarray(chroma.reshape(-1, 2)), *self._arrays)
+        return distances.reshape(shape), indices.reshape(shape)
+
+    @functools.cached_property
+    def _arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        """The classes' ``(K, 2)`` means and ``(K, 2, 2)`` inverse covariances."""
+        return np.array([c.mean for c in self.classes], dtype=np.float64), np.array([c._inverse for c in self.classes])
 
     def to_json(self) -> str:
         """The model as JSON (the shipped data file's format)."""
@@ -214,6 +226,29 @@ def _distance_table(means: np.ndarray, inverses: np.ndarray) -> np.ndarray:
                 nearest = min(nearest, squared)
             table[m, n] = np.sqrt(max(nearest, 0.0))
     return table
+
+
+@numba.njit(cache=True, nogil=True)
+def _nearest_class(chroma: np.ndarray, means: np.ndarray, inverses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mahalanobis distance of ``(N, 2)`` (I2, I3) values to the nearest of the classes with
+    ``(K, 2)`` means and ``(K, 2, 2)`` inverse covariances, and that class's index (the first
+    of equals); the arithmetic of :meth:`SkinClass.distance`."""
+    count = chroma.shape[0]
+    distances = np.empty(count, dtype=np.float64)
+    indices = np.empty(count, dtype=np.int64)
+    for i in range(count):
+        best = np.inf
+        index = 0
+        for k in range(means.shape[0]):
+            du, dv = chroma[i, 0] - means[k, 0], chroma[i, 1] - means[k, 1]
+            inverse = inverses[k]
+            squared = inverse[0, 0] * du * du + (inverse[0, 1] + inverse[1, 0]) * du * dv + inverse[1, 1] * dv * dv
+            distance = np.sqrt(max(squared, 0.0))
+            if distance < best:
+                best, index = distance, k
+        distances[i] = best
+        indices[i] = index
+    return distances, indices
 
 
 def default_skin_model() -> SkinModel:

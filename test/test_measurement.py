@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from human_tracker.vision.measurement import (
+    _strongest_channel,
     colour_costs,
     contour_costs,
     edge_map,
@@ -118,6 +119,16 @@ def test_colour_edges_see_a_step_between_equally_bright_colours() -> None:
     image[:, 15:] = (200, 0, 0)
     assert edge_map(image, blur_sigma=1.0).any()
     assert not edge_map(image.mean(axis=2).astype(np.uint8), blur_sigma=1.0).any()
+
+
+def test_colour_edges_take_the_strongest_channel_by_hand() -> None:
+    # |dx| + |dy| per channel: pixel 0: 3, 7, 5 -> channel 1; pixel 1: 4, 4, 1 -> the first
+    # of equals, channel 0; pixel 2: 0, 0, 9 -> channel 2 (negative derivatives count by size).
+    dx = np.array([[[1, -7, 2], [4, 0, 1], [0, 0, -9]]], dtype=np.int16)
+    dy = np.array([[[-2, 0, 3], [0, -4, 0], [0, 0, 0]]], dtype=np.int16)
+    strongest_x, strongest_y = _strongest_channel(dx, dy)
+    np.testing.assert_array_equal(strongest_x, [[-7, 4, -9]])
+    np.testing.assert_array_equal(strongest_y, [[0, 0, 0]])
 
 
 def test_eq1_likelihood_and_weights() -> None:

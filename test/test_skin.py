@@ -60,6 +60,12 @@ def test_mahalanobis_distance_by_hand() -> None:
     model = SkinModel((skin_class, SkinClass(np.array([10.0, 0.0]), np.eye(2))), 1.0)
     assert model.distance(np.array([9.0, 0.0])) == pytest.approx(1.0)
     assert int(model.nearest(np.array([9.0, 0.0]))) == 1
+    # Any shape of (..., 2) values: the nearest class's own distance, value for value.
+    chroma = np.random.default_rng(0).uniform(-20.0, 30.0, (5, 7, 2))
+    per_class = np.array([c.distance(chroma) for c in model.classes])
+    assert model.distance(chroma).shape == model.nearest(chroma).shape == (5, 7)
+    np.testing.assert_array_equal(model.distance(chroma), per_class.min(axis=0))
+    np.testing.assert_array_equal(model.nearest(chroma), per_class.argmin(axis=0))
 
 
 def test_candidate_cells_use_the_cell_mean() -> None:

@@ -140,7 +140,8 @@ class SkinModel:
         ``(511, 1021) float32``, indexed by ``(R - B + 255, 2G - R - B + 510)``: I2 and I3 are
         those integers over 2 and 4, so the table is exact for every pixel.
         """
-        return _distance_table(*self._arrays)
+        i2, i3 = np.meshgrid(np.arange(-255, 256) / 2.0, np.arange(-510, 511) / 4.0, indexing='ij')
+        return self.distance(np.stack([i2, i3], axis=-1)).astype(np.float32)
 
     def nearest(self, chroma: np.ndarray) -> np.ndarray:
         """Index of the nearest class for ``(..., 2)`` (I2, I3) values; shape ``(...)``."""
@@ -208,24 +209,6 @@ class SkinModel:
             return cls.from_json(Path(path).read_text())
         except (OSError, ValueError) as err:
             raise ValueError(f'cannot load skin model {path}: {err}') from err
-
-
-@numba.njit(cache=True, nogil=True)
-def _distance_table(means: np.ndarray, inverses: np.ndarray) -> np.ndarray:
-    """:attr:`SkinModel.distance_table` of classes with ``(K, 2)`` means and ``(K, 2, 2)`` inverse covariances."""
-    table = np.empty((511, 1021), dtype=np.float32)
-    for m in range(511):
-        i2 = (m - 255) / 2.0
-        for n in range(1021):
-            i3 = (n - 510) / 4.0
-            nearest = np.inf
-            for k in range(means.shape[0]):
-                du, dv = i2 - means[k, 0], i3 - means[k, 1]
-                inverse = inverses[k]
-                squared = inverse[0, 0] * du * du + (inverse[0, 1] + inverse[1, 0]) * du * dv + inverse[1, 1] * dv * dv
-                nearest = min(nearest, squared)
-            table[m, n] = np.sqrt(max(nearest, 0.0))
-    return table
 
 
 @numba.njit(cache=True, nogil=True)

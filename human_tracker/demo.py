@@ -30,7 +30,7 @@ from human_tracker.offline import POSE_COLUMNS
 from human_tracker.ros.collector import PoseCollector
 from human_tracker.ros.image_conversion import message_to_bgr8
 from human_tracker.ros.processes import NodeProcess, use_ros_environment
-from human_tracker.vision.templates import fit_state, head_and_shoulders
+from human_tracker.vision.templates import fit_template, head_and_shoulders
 from human_tracker.vision.tracker import box_from_state
 
 __all__ = ['run_demo', 'demo_problems', 'node_arguments', 'main']
@@ -143,11 +143,11 @@ def run_demo(bag: Path, out: Path, *, domain_id: int | None = None, rate: float 
             pose = collector.poses.get(frame.stamp_ns)
             box = None
             if contour is not None and pose is not None:
-                state = fit_state(template.points, contour)
+                state, shape = fit_template(template, contour)
                 box = box_from_state(state, template)
                 p = pose.pose.pose.position
                 metric = [round(v, 4) for v in (p.x, p.y, p.z)]
-                supports = [''] * (len(POSE_COLUMNS) - 12)
+                supports = [''] * (len(POSE_COLUMNS) - POSE_COLUMNS.index('shape') - 1)
                 table.writerow(
                     [
                         frame.index,
@@ -156,6 +156,7 @@ def run_demo(bag: Path, out: Path, *, domain_id: int | None = None, rate: float 
                         '',
                         'TRACKING',
                         *np.round(box, 2),
+                        shape.name,
                         *supports,
                         *metric,
                     ]

@@ -61,6 +61,7 @@ POSE_COLUMNS = (
     'box_y',
     'box_w',
     'box_h',
+    'shape',
     'motion_support',
     'skin_support',
     'appearance_distance',
@@ -301,6 +302,7 @@ def _pose_row(index: int, stamp_ns: int, outcome: TrackedTarget) -> list[object]
     return [
         *(index, stamp_ns, x, y, s, theta, round(estimate.confidence, 4), result.status),
         *shown,
+        estimate.shape,
         *(round(v, 4) for v in support),
         *(round(float(v), 3) for v in (var_x, cov_xy, var_y)),
         *who,

@@ -59,6 +59,26 @@ def test_state_moves_the_points_scale_and_rotation_apply() -> None:
     assert matched[0] == 1 and costs[0] == pytest.approx(9)
 
 
+def test_each_particle_is_measured_in_its_own_shape() -> None:
+    # Two shapes of one point each: shape 0 looks along x from (0, 0) and finds column 13 at
+    # d = 3 from (10, 10); shape 1 sits 2 px further right and finds it at d = 1.
+    points = np.array([[[0.0, 0.0]], [[2.0, 0.0]]])
+    normals = np.array([[[1.0, 0.0]], [[1.0, 0.0]]])
+    particles = np.array([[10.0, 10.0, 1.0, 0.0]] * 3)
+    fit = contour_costs(
+        _scene(), particles, points, normals, search_halfwidth=5, miss_penalty=50, labels=np.array([0, 1, 0])
+    )
+    np.testing.assert_allclose(fit.costs, [9, 1, 9])
+    # At s = 10 shape 0's point is (10, 10), with skin inside (x = 9, 8, 7) and none outside:
+    # γ = 0; shape 1's is (30, 10), no skin on either side: γ = (3 / w) / 3 with w = 2.
+    skin = np.zeros((40, 40), np.uint8)
+    skin[:, :11] = 255
+    colour, _ = colour_costs(skin, particles * [1, 1, 10, 1], points, normals, depth=0.3, labels=np.array([0, 1, 0]))
+    np.testing.assert_allclose(colour, [0, 1 / 2, 0])
+    with pytest.raises(ValueError, match='indices of the 2 shapes'):
+        contour_costs(_scene(), particles, points, normals, search_halfwidth=5, miss_penalty=50, labels=[0, 2, 0])
+
+
 def test_eq3_eq4_motion_weighting() -> None:
     particles = np.array([[10.0, 10.0, 1.0, 0.0]])
     motion = np.zeros((40, 40), dtype=np.uint8)

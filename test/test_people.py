@@ -201,6 +201,10 @@ def test_track_a_person_offline(tmp_path, capsys) -> None:
     head_ids = {r['id'] for r in rows if r['kind'] == 'head' and r['id']}
     hand_ids = {r['id'] for r in rows if r['kind'] == 'hand' and r['id']}
     assert head_ids and hand_ids and not head_ids & hand_ids
+    # Each row names the shape the target is drawn in: the bag's hand is open.
+    hand_shapes = [r['shape'] for r in rows if r['kind'] == 'hand' and r['status'] == 'TRACKING']
+    assert {r['shape'] for r in rows if r['kind'] == 'head' and r['shape']} == {'head_and_shoulders'}
+    assert hand_shapes.count('open_hand') > 0.9 * len(hand_shapes)
     assert summary['scored_kind'] == 'hand' and summary['precision_20px'] >= 0.95
     assert summary['targets']['head']['longest_id_share'] >= 0.9
     assert json.loads((tmp_path / 'summary.json').read_text())['targets'] == summary['targets']

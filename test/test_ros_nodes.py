@@ -42,7 +42,7 @@ from human_tracker.ros.processes import NodeProcess
 from human_tracker.scenes.generator import HEAD_WIDTH, SCENES, render_scene
 from human_tracker.vision.boxes import box_centre
 from human_tracker.vision.camera import back_project, default_camera_matrix, metric_positions
-from human_tracker.vision.templates import ContourTemplate, fit_state, head_and_shoulders, open_hand
+from human_tracker.vision.templates import ContourTemplate, fit_template, hand, head_and_shoulders
 from human_tracker.vision.tracker import box_from_state
 
 
@@ -53,12 +53,13 @@ def _pixel(position, camera_matrix: np.ndarray) -> tuple[float, float]:
 
 
 def _boxes(collector, frames, template: ContourTemplate | None = None) -> list:
-    """The reference boxes of the published contours, by frame (None where none was published)."""
+    """The reference boxes of the published contours, by frame (None where none was published):
+    a contour is the template in one of its shapes (a hand open or closed), the one it fits."""
     template = template or head_and_shoulders()
     boxes = []
     for frame in frames:
         contour = collector.contours.get(frame.stamp_ns)
-        boxes.append(None if contour is None else box_from_state(fit_state(template.points, contour), template))
+        boxes.append(None if contour is None else box_from_state(fit_template(template, contour)[0], template))
     return boxes
 
 
@@ -229,7 +230,7 @@ def test_hand_chain_with_skin_node_in_separate_processes(tmp_path) -> None:
     assert float(diagnostics['skin_support']) > 0.7  # the contour's interior is on the hand's skin
     offline = track_sequence(bag, tmp_path / 'offline', TrackOptions(target='hand', video=False, progress=False))
     core = read_poses(tmp_path / 'offline' / 'poses.csv')
-    over_dds = _boxes(collector, frames, open_hand())
+    over_dds = _boxes(collector, frames, hand())
     summary = summarise(over_dds, [f.ground_truth for f in frames])
     print(f'hand over DDS: {summary}; offline: {offline["precision_20px"]}')
     assert summary['precision_20px'] >= 0.85  # LOST for frames 96-107 (test_hand_tracking.py)
@@ -247,7 +248,7 @@ def test_pipeline_follows_a_hand_with_the_skin_stage_in_process(tmp_path) -> Non
     pipeline = NodeProcess('human_tracker.ros.pipeline', args, environment(), tmp_path / 'pipeline.log')
     collector = replay_and_collect(pipeline, bag, COMPRESSED_CAMERA_TOPIC, tmp_path, len(frames))
     assert 'configured: skin segmentation' in pipeline.output()
-    summary = summarise(_boxes(collector, frames, open_hand()), [f.ground_truth for f in frames])
+    summary = summarise(_boxes(collector, frames, hand()), [f.ground_truth for f in frames])
     print(f'pipeline, target hand: {summary}')
     assert summary['precision_20px'] >= 0.9
 
@@ -586,7 +587,7 @@ def test_a_lens_with_distortion_is_undistorted_before_the_pose(tmp_path, head_ba
     template, matrix = head_and_shoulders(), np.reshape(k, (3, 3))
     published, undistorted, pinhole = [], [], []
     for stamp, pose in sorted(collector.poses.items()):
-        state = fit_state(template.points, collector.contours[stamp])
+        state = fit_template(template, collector.contours[stamp])[0]
         published.append([pose.pose.pose.position.x, pose.pose.pose.position.y, pose.pose.pose.position.z])
         undistorted.append(metric_positions(state, template, matrix, 0.16, distortion))
         pinhole.append(metric_positions(state, template, matrix, 0.16))

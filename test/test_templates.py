@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from human_tracker.vision.templates import (
+    closed_hand,
     fit_state,
+    fit_template,
     head_and_shoulders,
     load_template,
     make_template,
@@ -89,10 +92,31 @@ def test_load_template_from_file_and_errors(tmp_path) -> None:
 
 def test_hand_template_is_open_with_outward_normals() -> None:
     hand = make_template('hand', 64)
-    assert hand.name == 'hand' and not hand.closed and hand.num_points == 64
+    assert hand.name == 'open_hand' and not hand.closed and hand.num_points == 64
     assert hand.points[:, 0].max() - hand.points[:, 0].min() == pytest.approx(1.0, abs=0.05)  # one unit wide
     # Outwards: up at the middle fingertip, left at the thumb's tip, right at the little finger.
     assert hand.normals[np.argmin(hand.points[:, 1]), 1] < -0.7
     assert hand.normals[np.argmin(hand.points[:, 0]), 0] < -0.7
     assert hand.normals[np.argmax(hand.points[:, 0]), 0] > 0.7
     np.testing.assert_allclose(open_hand(64).points, hand.points)
+
+
+def test_the_hand_is_open_or_closed_in_one_frame() -> None:
+    hand = make_template('hand', 48)
+    assert [shape.name for shape in hand.shapes] == ['open_hand', 'closed_hand']
+    closed = hand.variants[0]
+    assert closed.num_points == 48 and closed.reference_box == hand.reference_box
+    # The fist is 0.8 of the open hand's width, centred on the open hand's box, knuckles up.
+    assert closed.points[:, 0].max() - closed.points[:, 0].min() == pytest.approx(0.8, abs=0.02)
+    assert closed.normals[np.argmin(closed.points[:, 1]), 1] < -0.9
+    # By name, a template file's place takes a single built-in silhouette: the paper's open hand.
+    paper = make_template('hand', 48, 'open_hand')
+    assert paper.shapes == (paper,)
+    np.testing.assert_allclose(paper.points, hand.points)
+    # A published contour tells its shape.
+    state = np.array([40.0, 30.0, 50.0, 0.2])
+    fitted, shape = fit_template(hand, transform_points(closed.points, state))
+    assert shape is closed
+    np.testing.assert_allclose(fitted, state)
+    with pytest.raises(ValueError, match='has 24 points'):
+        replace(hand, variants=(closed_hand(24),))

@@ -10,7 +10,7 @@ from human_tracker.evaluation.metrics import summarise
 from human_tracker.io.bags import read_frames
 from human_tracker.ros.image_conversion import message_to_bgr8
 from human_tracker.vision.measurement import edge_map
-from human_tracker.vision.templates import head_and_shoulders
+from human_tracker.vision.templates import hand, head_and_shoulders, transform_points
 from human_tracker.vision.tracker import RESIDUAL_FLOOR, ContourTracker, TrackerParameters
 
 
@@ -87,3 +87,26 @@ def test_fit_residual_is_the_rms_distance_to_the_edges_found() -> None:
     tracker = ContourTracker(template, TrackerParameters(num_particles=50))
     tracker.initialise(state)
     assert tracker.step(np.zeros((160, 160), np.uint8)).fit_residual == tracker.parameters.search_halfwidth
+
+
+@pytest.mark.parametrize('shown', [0, 1])
+def test_a_hand_is_followed_in_the_shape_it_shows(shown: int) -> None:
+    """The mixed state: on an open hand's outline the particles settle in the open shape, on a
+    fist's in the closed one (its 8ρ penalty notwithstanding), and the contour is drawn in it."""
+    template = hand()
+    state = np.array([80.0, 80.0, 60.0, 0.0])
+    image = np.zeros((160, 160), np.uint8)
+    outline = transform_points(template.shapes[shown].points, state)
+    cv2.polylines(image, [np.round(outline).astype(np.int32)], False, 255, 2)
+    tracker = ContourTracker(template, TrackerParameters(num_particles=200, process_noise=(1.0, 1.0, 0.01, 0.01)))
+    tracker.initialise(state)
+    assert set(tracker.labels.tolist()) == {0, 1}
+    for _ in range(5):
+        estimate = tracker.step(edge_map(image))
+    assert estimate.shape == template.shapes[shown].name
+    assert np.mean(tracker.labels == shown) > 0.7
+    np.testing.assert_allclose(estimate.contour, transform_points(template.shapes[shown].points, estimate.state))
+    # One shape draws no labels from the generator: a head's random stream is what it was.
+    head = ContourTracker(head_and_shoulders(), TrackerParameters(num_particles=10))
+    head.initialise(state)
+    assert not head.labels.any()

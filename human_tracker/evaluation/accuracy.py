@@ -209,7 +209,8 @@ def compare_on_sequence(
     ``target`` overrides what the sequence says it outlines (a folder of frames says
     nothing: head); ``without_box`` adds our tracker started by itself (no first box);
     ``paper`` adds the paper's tracker from the first box (``likelihood: paper``,
-    ``proposals: off``: the shape and cue likelihoods of eqs. 1-4 and §3.2 alone); ``person``
+    ``proposals: off``, a hand open only: the shape and cue likelihoods of eqs. 1-4 and §3.2
+    alone); ``person``
     adds ours following the whole person (head and hand, :mod:`~human_tracker.vision.people`)
     from the target's first box and without one, the target's own track scored.
     """
@@ -248,6 +249,8 @@ def compare_on_sequence(
                     init_kind=target if name == 'person' else None,
                     filter_parameters=TrackerParameters(seed=seed),
                     target_parameters=parameters,
+                    # The paper's hand is Fig. 1's open hand alone.
+                    template_file='open_hand' if name == 'paper' and target == 'hand' else '',
                     progress=False,
                     video=False,
                 )

@@ -20,7 +20,7 @@ from human_tracker.vision.people import PersonTracker
 from human_tracker.vision.resolution import to_working, working_scale
 from human_tracker.vision.skin import SkinSegmenter, default_skin_model
 from human_tracker.vision.target import TargetParameters, TargetTracker, parameters_for
-from human_tracker.vision.templates import head_and_shoulders, open_hand
+from human_tracker.vision.templates import hand, head_and_shoulders
 from human_tracker.vision.tracker import ContourTracker, TrackerParameters
 
 __all__ = ['PARTICLE_COUNTS', 'stage_timings']
@@ -103,12 +103,12 @@ def stage_timings(
     for name, working_width in (('pipeline', TargetParameters().working_width), ('pipeline_full_size', 0)):
         run = _pipeline(messages, boxes[0], filter_parameters, working_width)
         results[name], results[f'{name}_cpu'] = _wall_and_cpu_ms(run, count)
-    hand = TargetTracker(open_hand(), filter_parameters, parameters_for('hand'))
-    hand.initialise_from_box(boxes[0])
-    hand_width = hand.parameters.working_width
+    hand_tracker = TargetTracker(hand(), filter_parameters, parameters_for('hand'))
+    hand_tracker.initialise_from_box(boxes[0])
+    hand_width = hand_tracker.parameters.working_width
     person = PersonTracker(('head', 'hand', 'hand'), filter_parameters)
     person.initialise_from_box(boxes[0], 'head')
-    for name, process in (('hand_pipeline', hand.process), ('person_pipeline', person.process)):
+    for name, process in (('hand_pipeline', hand_tracker.process), ('person_pipeline', person.process)):
         run = _skin_pipeline(messages, process, segmenter, hand_width)
         results[name], results[f'{name}_cpu'] = _wall_and_cpu_ms(run, count)
     return {k: round(v, 3) for k, v in results.items()}

@@ -90,6 +90,10 @@ FILTER_PARAMETERS = (
     ParameterSpec(
         'detection_floor', 'Likelihood of a state far from every face found, relative to one on a face.', 1e-9, 1.0
     ),
+    ParameterSpec(
+        'shape_switch', "Probability a frame that a particle changes to another of the template's shapes.", 0.0, 1.0
+    ),
+    ParameterSpec('variant_penalty', "Cost of a particle in a variant shape (a closed hand), in ρ's.", 0.0, 1e3),
     ParameterSpec('min_scale', 'Smallest scale s: reference region width in pixels.', 1.0, 1e5),
     ParameterSpec('max_scale', 'Largest scale s: reference region width in pixels.', 1.0, 1e5),
     ParameterSpec('seed', 'Seed of the particle filter (replays are reproducible).', 0, 2**31 - 1, runtime=False),
@@ -198,8 +202,8 @@ class TrackerNode(ImageStage):
             self,
             'target',
             'head',
-            'What to track: head (head-and-shoulders), hand (open hand) or person (a head and hands, each with its id '
-            'on targets).',
+            'What to track: head (head-and-shoulders), hand (open or closed) or person (a head and hands, each with '
+            'its id on targets).',
             read_only=True,
         )
         hands = declare(
@@ -216,7 +220,11 @@ class TrackerNode(ImageStage):
         )
         kinds = kinds_of(target, hands)
         template_file = declare(
-            self, 'template_file', '', 'JSON template replacing the built-in one (empty: built-in).', read_only=True
+            self,
+            'template_file',
+            '',
+            'JSON template, or open_hand, closed_hand, head_and_shoulders, for the built-in one (empty: built-in).',
+            read_only=True,
         )
         num_points = declare(
             self, 'num_points', 48, 'N, measurement points along the spline (§2.3).', low=4, high=1024, read_only=True

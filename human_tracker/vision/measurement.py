@@ -169,6 +169,7 @@ def _contour_costs(
     motion: np.ndarray,
     use_motion: bool,
     particles: np.ndarray,
+    labels: np.ndarray,
     points: np.ndarray,
     normals: np.ndarray,
     search_halfwidth: float,
@@ -181,15 +182,16 @@ def _contour_costs(
 ) -> None:
     height, width = edges.shape
     check_orientation = orientation_tolerance < np.pi / 2
-    num_points = points.shape[0]
+    num_points = points.shape[1]
     reach = int(np.ceil(search_halfwidth))
     miss = 2.0 * miss_penalty if use_motion else miss_penalty
     tolerance_degrees = np.degrees(orientation_tolerance)
     # A rotation by θ turns every normal by θ: one arctan2 per template point, not per particle,
     # and the sum of two orientations in [0, 180) brought back into it by one comparison per
     # point (a float modulo per point and particle took 13 % of the filter's step).
-    template_degrees = np.degrees(np.arctan2(normals[:, 1], normals[:, 0])) % 180.0
+    template_degrees = np.degrees(np.arctan2(normals[:, :, 1], normals[:, :, 0])) % 180.0
     for i in numba.prange(particles.shape[0]):
+        shape = labels[i]
         x = particles[i, 0]
         y = particles[i, 1]
         scale = particles[i, 2]
@@ -201,11 +203,11 @@ def _contour_costs(
         hits = 0
         moving_hits = 0
         for j in range(num_points):
-            px, py, nx, ny = _placed(x, y, scale, c, s, points[j], normals[j])
+            px, py, nx, ny = _placed(x, y, scale, c, s, points[shape, j], normals[shape, j])
             # Modulo 180 once per point, so that each probe only compares: edge labels are
             # orientations in [0, 180), and two within the tolerance of each other either way
             # round the half-turn are |a - b| <= t or >= 180 - t apart.
-            normal_degrees = template_degrees[j] + turn_degrees
+            normal_degrees = template_degrees[shape, j] + turn_degrees
             if normal_degrees >= 180.0:
                 normal_degrees -= 180.0
             found = -1.0
@@ -264,6 +266,7 @@ def contour_costs(
     miss_penalty: float,
     motion: np.ndarray | None = None,
     orientation_tolerance: float = np.pi / 2,
+    labels: np.ndarray | None = None,
 ) -> ContourFit:
     """Σ_j φ(j) for every particle (eq. 2, or eq. 3-4 when a motion mask is given).
 
@@ -271,14 +274,16 @@ def contour_costs(
         edges: ``(H, W) uint8`` edge image from :func:`edge_map`: 0 off edges, else 1 + the
             gradient orientation in degrees modulo 180.
         particles: ``(P, 4) float64`` states x, y (pixels), s (pixels/unit), θ (radians).
-        points: ``(N, 2) float64`` template measurement points, template units.
-        normals: ``(N, 2) float64`` unit normals at the points.
+        points: ``(N, 2) float64`` template measurement points, template units; or
+            ``(K, N, 2)``, the points of K shapes, with ``labels``.
+        normals: ``(N, 2) float64`` (or ``(K, N, 2)``) unit normals at the points.
         search_halfwidth: δ, pixels searched on each side of a point along its normal.
         miss_penalty: ρ, the cost of a point with no edge within δ (2ρ with motion).
         motion: Optional ``(H, W) uint8`` mask, non-zero where the optical flow or the
             background model says the pixel moves (γ = 0 there).
         orientation_tolerance: Largest angle, radians, between an edge's gradient and the
             contour normal for the edge to count; π/2 accepts every edge (the paper's model).
+        labels: ``(P,)`` each particle's shape, an index into the K shapes (0 when None).
 
     Returns:
         The costs Σ_j φ(j) and, per particle, how many points found an edge within δ, how
@@ -297,13 +302,15 @@ def contour_costs(
     matched = np.empty(particles.shape[0], dtype=np.int64)
     moving = np.empty(particles.shape[0], dtype=np.int64)
     squared_distances = np.empty(particles.shape[0], dtype=np.float64)
+    points, normals, labels = _shapes(points, normals, labels, particles.shape[0])
     _contour_costs(
         np.ascontiguousarray(edges, dtype=np.uint8),
         np.ascontiguousarray(motion, dtype=np.uint8),
         use_motion,
         np.ascontiguousarray(particles, dtype=np.float64),
-        np.ascontiguousarray(points, dtype=np.float64),
-        np.ascontiguousarray(normals, dtype=np.float64),
+        labels,
+        points,
+        normals,
         float(search_halfwidth),
         float(miss_penalty),
         float(orientation_tolerance),
@@ -319,6 +326,7 @@ def contour_costs(
 def _colour_costs(
     skin: np.ndarray,
     particles: np.ndarray,
+    labels: np.ndarray,
     points: np.ndarray,
     normals: np.ndarray,
     depth: float,
@@ -328,8 +336,9 @@ def _colour_costs(
     interior_skin: np.ndarray,
 ) -> None:
     height, width = skin.shape
-    num_points = points.shape[0]
+    num_points = points.shape[1]
     for i in numba.prange(particles.shape[0]):
+        shape = labels[i]
         x = particles[i, 0]
         y = particles[i, 1]
         scale = particles[i, 2]
@@ -339,7 +348,7 @@ def _colour_costs(
         total = 0.0
         skin_inside = 0.0
         for j in range(num_points):
-            px, py, nx, ny = _placed(x, y, scale, c, s, points[j], normals[j])
+            px, py, nx, ny = _placed(x, y, scale, c, s, points[shape, j], normals[shape, j])
             inside_not_skin = 0.0
             outside_skin = 0.0
             for k in range(1, samples + 1):
@@ -366,6 +375,7 @@ def colour_costs(
     interior_weight: float = 2.0,
     depth: float = 0.1,
     samples: int = 3,
+    labels: np.ndarray | None = None,
 ) -> ColourFit:
     """Σ_j γ_colour(j) for every particle: the colour term of §3.2.
 
@@ -378,6 +388,8 @@ def colour_costs(
         depth: How far into the interior and exterior the labels are sampled, template
             units (a fraction of the reference region's width).
         samples: Samples on each side of every point.
+        labels: ``(P,)`` each particle's shape when ``points`` and ``normals`` are
+            ``(K, N, 2)``, as in :func:`contour_costs`.
 
     Returns:
         Per particle, the sum over points of γ_colour(j) (each in [0, 1 + 1/w]) and the
@@ -391,11 +403,13 @@ def colour_costs(
         raise ValueError(f'skin labels must be a 2-D image, got shape {skin.shape}')
     costs = np.empty(particles.shape[0], dtype=np.float64)
     interior_skin = np.empty(particles.shape[0], dtype=np.float64)
+    points, normals, labels = _shapes(points, normals, labels, particles.shape[0])
     _colour_costs(
         np.ascontiguousarray(skin, dtype=np.uint8),
         np.ascontiguousarray(particles, dtype=np.float64),
-        np.ascontiguousarray(points, dtype=np.float64),
-        np.ascontiguousarray(normals, dtype=np.float64),
+        labels,
+        points,
+        normals,
         float(depth),
         int(samples),
         float(interior_weight),
@@ -403,6 +417,24 @@ def colour_costs(
         interior_skin,
     )
     return ColourFit(costs, interior_skin)
+
+
+def _shapes(
+    points: np.ndarray, normals: np.ndarray, labels: np.ndarray | None, count: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Points and normals as ``(K, N, 2) float64`` and the ``(P,) int64`` labels indexing them."""
+    points = np.ascontiguousarray(points, dtype=np.float64)
+    normals = np.ascontiguousarray(normals, dtype=np.float64)
+    if points.ndim == 2:
+        points, normals = points[None], normals[None]
+    if points.shape != normals.shape or points.ndim != 3 or points.shape[2] != 2:
+        raise ValueError(f'points {points.shape} and normals {normals.shape} must both be (N, 2) or (K, N, 2)')
+    if labels is None:
+        return points, normals, np.zeros(count, dtype=np.int64)
+    labels = np.ascontiguousarray(labels, dtype=np.int64)
+    if labels.shape != (count,) or (count and not 0 <= labels.min() <= labels.max() < points.shape[0]):
+        raise ValueError(f'labels must be ({count},) indices of the {points.shape[0]} shapes')
+    return points, normals, labels
 
 
 def log_likelihood(costs: np.ndarray, likelihood_gain: float) -> np.ndarray:

@@ -2,7 +2,7 @@
 
 The paper's introduction asks for "the determination of the person's pose as well as the
 location of the hand(s)". A person here is a head (head-and-shoulders contour) and up to two
-hands (open-hand contours), each its own :class:`~human_tracker.vision.target.TargetTracker`
+hands (open or closed hand contours), each its own :class:`~human_tracker.vision.target.TargetTracker`
 over the same frames and cues; up to ``max_people`` people are followed. The heads run first
 on each frame, and the hands use what they found of the faces: a hand's tracker, which must
 keep off faces (a face is skin of about a hand's size), is handed where its person's head's

@@ -76,6 +76,13 @@ class TrackerParameters:
             detection, on frames with detections
             (:func:`~human_tracker.vision.proposals.detection_log_likelihood`); 1 leaves the
             detections out of the likelihood (they then only draw particles).
+        shape_switch: With a template of several shapes (a hand open or closed), the
+            probability that a particle changes shape from one frame to the next, to another
+            shape drawn at random: the mixed state's transition.
+        variant_penalty: Cost of a particle drawn in one of the template's variants rather
+            than in the template itself, in missed points (times ρ): where both fit, the
+            template wins. A closed hand is a rounder, simpler outline than the open one and
+            fits skin-coloured blobs the open hand does not.
         seed: Seed of the filter's random generator (a replay is then reproducible).
     """
 
@@ -96,6 +103,8 @@ class TrackerParameters:
     restart_share: float = 0.05
     proposal_spread: tuple[float, float, float, float] = (6.0, 6.0, 0.08, 0.05)
     detection_floor: float = 0.001
+    shape_switch: float = 0.1
+    variant_penalty: float = 8.0
     seed: int = 0
 
     def validate(self) -> None:
@@ -130,6 +139,8 @@ class TrackerParameters:
                 f'proposal_spread must be 4 values > 0, got {self.proposal_spread}',
             ),
             (0.0 < self.detection_floor <= 1.0, f'detection_floor must be in (0, 1], got {self.detection_floor}'),
+            (0.0 <= self.shape_switch <= 1.0, f'shape_switch must be in [0, 1], got {self.shape_switch}'),
+            (self.variant_penalty >= 0, f'variant_penalty must be >= 0, got {self.variant_penalty}'),
             (
                 min(self.importance_share, self.restart_share) >= 0 and self.importance_share + self.restart_share <= 1,
                 f'importance_share and restart_share must be >= 0 with a sum <= 1, got '
@@ -175,7 +186,7 @@ class TrackEstimate:
         motion_support: Weighted fraction of points whose edge moves (0 without motion).
         effective_sample_size: 1 / Σ w² before resampling, in [1, P].
         box: ``(x, y, w, h)`` pixels, bounding box of the template's reference region.
-        contour: ``(N, 2)`` image points of the template at ``state``.
+        contour: ``(N, 2)`` image points of the template at ``state``, in ``shape``.
         skin_support: Weighted share of the contour's interior samples on skin (0 without skin).
         appearance_distance: Bhattacharyya distance D of the target's region from its
             reference, sqrt of the weighted mean D² (0 without an appearance model).
@@ -188,6 +199,8 @@ class TrackEstimate:
             plus the pixel grid's 1/12 px² variance.
         centre_covariance: ``(2, 2)`` covariance (pixels²) of the reference region's centre:
             the weighted particles' spread plus ``position_error``² on each axis.
+        shape: Name of the template's shape holding most of the weight (a hand: ``open_hand``
+            or ``closed_hand``).
     """
 
     state: np.ndarray
@@ -202,6 +215,7 @@ class TrackEstimate:
     fit_residual: float = 0.0
     position_error: float = 0.0
     centre_covariance: np.ndarray = field(default_factory=lambda: np.zeros((2, 2)))
+    shape: str = ''
 
 
 # An appearance term: the squared Bhattacharyya distance D² of each state ``(P, 4)``, ``(P,)``.
@@ -243,18 +257,24 @@ class ContourTracker:
     """Particle filter over [x, y, s, θ] fitting a contour template to image edges.
 
     The fields are the filter's whole state; ``step`` runs §2.2 (predict), §2.3-2.4 (weigh)
-    and resampling on one frame.
+    and resampling on one frame. With a template of several shapes each particle also carries
+    its shape (``labels``), which changes with probability ``shape_switch`` a frame.
     """
 
     template: ContourTemplate
     parameters: TrackerParameters = field(default_factory=TrackerParameters)
     particles: np.ndarray | None = None
     previous: np.ndarray | None = None
+    labels: np.ndarray | None = None
     rng: np.random.Generator = field(init=False)
+    _points: np.ndarray = field(init=False, repr=False)
+    _normals: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         self.parameters.validate()
         self.rng = np.random.default_rng(self.parameters.seed)
+        self._points = np.stack([shape.points for shape in self.template.shapes])
+        self._normals = np.stack([shape.normals for shape in self.template.shapes])
 
     @property
     def initialised(self) -> bool:
@@ -270,6 +290,7 @@ class ContourTracker:
             self.rng,
         )
         self.previous = self.particles.copy()
+        self.labels = self._draw_labels(self.parameters.num_particles)
 
     def initialise_from_box(self, box: tuple[float, float, float, float]) -> None:
         """Initialise on the reference region (head or hand) filling ``box`` (x, y, w, h)."""
@@ -288,6 +309,7 @@ class ContourTracker:
         """Forget the target; the next ``initialise`` starts afresh with the same seed."""
         self.particles = None
         self.previous = None
+        self.labels = None
         self.rng = np.random.default_rng(self.parameters.seed)
 
     def step(
@@ -323,7 +345,7 @@ class ContourTracker:
         Raises:
             RuntimeError: The tracker was not initialised.
         """
-        if self.particles is None or self.previous is None:
+        if self.particles is None or self.previous is None or self.labels is None:
             raise RuntimeError('ContourTracker.step called before initialise')
         params = self.parameters
         if self.particles.shape[0] != params.num_particles:
@@ -332,6 +354,7 @@ class ContourTracker:
         self.particles, self.previous = predict(
             current, past, params.velocity_damping, np.asarray(params.process_noise), self.rng
         )
+        self.labels = self._switch_shapes(self.labels)
         correction = None
         if detections is not None and len(detections):
             self.particles, self.previous, correction = draw_with_proposals(
@@ -347,7 +370,7 @@ class ContourTracker:
                 rng=self.rng,
             )
         np.clip(self.particles[:, 2], params.min_scale, params.max_scale, out=self.particles[:, 2])
-        fit = self.fit(edges, self.particles, motion, skin)
+        fit = self.fit(edges, self.particles, motion, skin, self.labels)
         distances = None if appearance is None else appearance(self.particles)
         log_weights = self.log_weights(fit, distances)
         if correction is not None:
@@ -362,6 +385,8 @@ class ContourTracker:
         residual = _fit_residual(fit, weights, params.search_halfwidth)
         position_error = float(np.sqrt(max(residual**2 - RESIDUAL_FLOOR**2, 0.0) + 1.0 / 12.0))
         centres = reference_centres(self.particles, self.template)
+        shapes = self.template.shapes
+        shape = shapes[int(np.argmax(np.bincount(self.labels, weights, len(shapes))))]
         estimate = TrackEstimate(
             state=state,
             covariance=weighted_covariance(self.particles, weights),
@@ -374,11 +399,13 @@ class ContourTracker:
             centre_covariance=weighted_covariance(centres, weights) + position_error**2 * np.eye(2),
             effective_sample_size=effective_sample_size(weights),
             box=box_from_state(state, self.template),
-            contour=transform_points(self.template.points, state),
+            contour=transform_points(shape.points, state),
+            shape=shape.name,
         )
         keep = systematic_resample(weights, self.rng)
         self.particles = self.particles[keep]
         self.previous = self.previous[keep]
+        self.labels = self.labels[keep]
         return estimate
 
     def log_weights(self, fit: ContourFit, appearance_distances: np.ndarray | None = None) -> np.ndarray:
@@ -394,30 +421,64 @@ class ContourTracker:
         states: np.ndarray,
         motion: np.ndarray | None = None,
         skin: np.ndarray | None = None,
+        labels: np.ndarray | None = None,
     ) -> ContourFit:
-        """How the template fits the image at ``states`` ``(P, 4)``: eqs. 2-4, plus ρ γ_colour (§3.2) with skin."""
+        """How the template fits the image at ``states`` ``(P, 4)``: eqs. 2-4, plus ρ γ_colour (§3.2) with skin.
+
+        ``labels`` ``(P,)``: the shape drawn at each state (its variants cost
+        ``variant_penalty`` ρ more); without them, each state is measured in the shape that
+        fits it best.
+        """
+        if labels is None and len(self.template.shapes) > 1:
+            fits = [
+                self.fit(edges, states, motion, skin, np.full(len(states), k)) for k in range(len(self.template.shapes))
+            ]
+            best = np.argmin([fit.costs for fit in fits], axis=0)
+            return ContourFit(
+                *(None if values[0] is None else np.choose(best, values) for values in zip(*fits, strict=True))
+            )
         params = self.parameters
         fit = contour_costs(
             edges,
             states,
-            self.template.points,
-            self.template.normals,
+            self._points,
+            self._normals,
             search_halfwidth=params.search_halfwidth,
             miss_penalty=params.miss_penalty,
             motion=motion,
             orientation_tolerance=params.orientation_tolerance,
+            labels=labels,
         )
+        if labels is not None and params.variant_penalty:
+            fit = fit._replace(costs=fit.costs + params.variant_penalty * params.miss_penalty * (labels > 0))
         if skin is None:
             return fit
         colour, interior_skin = colour_costs(
             skin,
             states,
-            self.template.points,
-            self.template.normals,
+            self._points,
+            self._normals,
             interior_weight=params.interior_weight,
             depth=params.colour_depth,
+            labels=labels,
         )
         return fit._replace(costs=fit.costs + params.miss_penalty * colour, skin=interior_skin)
+
+    def _draw_labels(self, count: int) -> np.ndarray:
+        """Shapes of a new cloud of ``count`` particles: each shape equally likely."""
+        shapes = len(self.template.shapes)
+        if shapes == 1:  # one shape draws nothing, so a one-shape filter's random stream stays the same
+            return np.zeros(count, dtype=np.int64)
+        return self.rng.integers(0, shapes, size=count)
+
+    def _switch_shapes(self, labels: np.ndarray) -> np.ndarray:
+        """The mixed state's transition: each particle changes shape with probability
+        ``shape_switch``, to one of the others at random."""
+        shapes = len(self.template.shapes)
+        if shapes == 1:
+            return labels
+        switch = self.rng.random(labels.shape[0]) < self.parameters.shape_switch
+        return np.where(switch, (labels + self.rng.integers(1, shapes, size=labels.shape[0])) % shapes, labels)
 
     def _resize(self, count: int) -> None:
         """Change the particle count at run time by resampling the current cloud uniformly."""
@@ -425,6 +486,8 @@ class ContourTracker:
         keep = self.rng.integers(0, self.particles.shape[0], size=count)
         self.particles = self.particles[keep]
         self.previous = self.previous[keep]
+        if self.labels is not None:
+            self.labels = self.labels[keep]
 
 
 def _fit_residual(fit: ContourFit, weights: np.ndarray, search_halfwidth: float) -> float:

@@ -228,6 +228,7 @@ def test_hand_chain_with_skin_node_in_separate_processes(tmp_path) -> None:
     assert diagnostics.get('frames_processed') == str(len(frames))
     assert diagnostics.get('frames_without_foreground') == diagnostics.get('frames_without_skin') == '0'
     assert float(diagnostics['skin_support']) > 0.7  # the contour's interior is on the hand's skin
+    assert diagnostics['shape'] in ('open_hand', 'closed_hand')
     offline = track_sequence(bag, tmp_path / 'offline', TrackOptions(target='hand', video=False, progress=False))
     core = read_poses(tmp_path / 'offline' / 'poses.csv')
     over_dds = _boxes(collector, frames, hand())

@@ -340,7 +340,7 @@ class TrackerNode(ImageStage):
         )
         self.status_pub = self.create_publisher(DiagnosticArray, 'status', LATCHED_QOS)
         self.status_header = Header()
-        self.status_sent: str | None = None
+        self.status_sent: tuple[str, str] | None = None
         self.create_timer(status_period, self._publish_status, clock=self.steady_clock)
         self.requested_box: tuple[float, float, float, float] | None = None
         self.create_subscription(RegionOfInterest, 'init_roi', self._on_init_roi, RESULT_QOS)
@@ -571,7 +571,7 @@ class TrackerNode(ImageStage):
         result = outcomes[0].result
         self.last_result, self.last_outcomes = result, outcomes
         self.status_header = header
-        if result.status != self.status_sent:
+        if self._status_key() != self.status_sent:
             self._publish_status()
         if result.motion_set_aside:
             self.frames_motion_set_aside += 1
@@ -765,15 +765,22 @@ class TrackerNode(ImageStage):
         level = DiagnosticStatus.WARN if state == LOST else DiagnosticStatus.OK
         status = node_status(self, state, self._target_values(), level=level)
         self.status_pub.publish(DiagnosticArray(header=self.status_header, status=[status]))
-        self.status_sent = state
+        self.status_sent = self._status_key()
+
+    def _status_key(self) -> tuple[str, str]:
+        """What a status message is sent at once on a change of: the state and the shape (a
+        hand opening or closing is a gesture)."""
+        estimate = None if self.last_result is None else self.last_result.estimate
+        return self.tracker.status, '' if estimate is None else estimate.shape
 
     def _target_values(self) -> dict[str, str]:
-        """The last estimate's confidence and per-cue support (empty without one)."""
+        """The last estimate's shape, confidence and per-cue support (empty without one)."""
         result = self.last_result
         if result is None or result.estimate is None:
             return {}
         estimate = result.estimate
         return {
+            'shape': estimate.shape,
             'confidence': f'{estimate.confidence:.3f}',
             'motion_support': f'{estimate.motion_support:.3f}',
             'skin_support': f'{estimate.skin_support:.3f}',

@@ -429,13 +429,14 @@ class ContourTracker:
         ``variant_penalty`` ρ more); without them, each state is measured in the shape that
         fits it best.
         """
-        if labels is None and len(self.template.shapes) > 1:
-            fits = [
-                self.fit(edges, states, motion, skin, np.full(len(states), k)) for k in range(len(self.template.shapes))
-            ]
-            best = np.argmin([fit.costs for fit in fits], axis=0)
+        shapes = len(self.template.shapes)
+        if labels is None and shapes > 1:
+            # Every state in every shape in one pass of the kernels, then each state's best.
+            count = len(states)
+            fit = self.fit(edges, np.tile(states, (shapes, 1)), motion, skin, np.repeat(np.arange(shapes), count))
+            best = np.argmin(fit.costs.reshape(shapes, count), axis=0)
             return ContourFit(
-                *(None if values[0] is None else np.choose(best, values) for values in zip(*fits, strict=True))
+                *(None if values is None else values.reshape(shapes, count)[best, np.arange(count)] for values in fit)
             )
         params = self.parameters
         fit = contour_costs(

@@ -483,12 +483,11 @@ class ContourTracker:
 
     def _resize(self, count: int) -> None:
         """Change the particle count at run time by resampling the current cloud uniformly."""
-        assert self.particles is not None and self.previous is not None
+        assert self.particles is not None and self.previous is not None and self.labels is not None
         keep = self.rng.integers(0, self.particles.shape[0], size=count)
         self.particles = self.particles[keep]
         self.previous = self.previous[keep]
-        if self.labels is not None:
-            self.labels = self.labels[keep]
+        self.labels = self.labels[keep]
 
 
 def _fit_residual(fit: ContourFit, weights: np.ndarray, search_halfwidth: float) -> float:

@@ -187,7 +187,7 @@ def _skin(options: argparse.Namespace) -> int:
                 scale = working_scale(image.shape[1], options.working_width)
                 mask = segmenter.segment(to_working(image, options.working_width), scale)
                 mask = cv2.resize(mask, (image.shape[1], image.shape[0]), interpolation=cv2.INTER_NEAREST)
-            cv2.imwrite(str(options.out / f'{stem}.png'), mask)
+            cv2.imwrite(str(options.out / f'{stem}.png'), np.where(mask > 0, 255, 0).astype(np.uint8))
             written += 1
             labelled += float(np.count_nonzero(mask)) / mask.size
     finally:

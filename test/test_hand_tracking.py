@@ -68,7 +68,10 @@ def test_a_hand_that_leaves_is_lost_and_found_again() -> None:
         f'precision on the frames in view {np.mean(errors < 20):.3f}'
     )
     assert away.count('LOST') >= 20  # after lost_frames (5) of empty skin inside the contour
-    assert back <= 85 and np.mean(errors < 20) >= 0.9
+    # Found again on frame 87: the hand comes back with its arm, and a restart at such a
+    # region's upper end (upper_end_restarts) waits until the hand, not the fingers, is in
+    # view (83 with the region's moments, which cost the real hand2 0.05 of precision).
+    assert back <= 88 and np.mean(errors < 20) >= 0.9
 
 
 def test_a_face_is_cut_from_the_regions_hypotheses_come_from() -> None:

@@ -6,7 +6,14 @@ import cv2
 import numpy as np
 import pytest
 
-from human_tracker.vision.initialisation import first_local_maximum, largest_blob, state_from_moments, state_from_scan
+from human_tracker.vision.initialisation import (
+    first_local_maximum,
+    largest_blob,
+    moments_state,
+    state_from_moments,
+    state_from_scan,
+    upper_end_state,
+)
 from human_tracker.vision.templates import head_and_shoulders
 
 TEMPLATE = head_and_shoulders()  # head box (-0.5, -0.63, 1, 1.25): one unit wide
@@ -40,6 +47,25 @@ def test_moments_of_a_rotated_ellipse() -> None:
     centre = np.array([x, y]) + s * np.array([0.005 * np.sin(theta), -0.005 * np.cos(theta)])
     np.testing.assert_allclose(centre, [160, 120], atol=0.6)
     assert state_from_moments(np.zeros((10, 10), np.uint8), TEMPLATE) is None
+
+
+def test_upper_end_of_a_forearm_and_hand() -> None:
+    # A vertical bar 20 px wide and 100 tall (a raised forearm and hand): across it the
+    # columns' variance is (20² - 1) / 12 = 33.25, 4 sqrt(33.25) = 23.07 px, so its upper end
+    # is the top 1.3 * 23.07 = 29.98 px: rows 40-69, where the whole bar's moments put X_0
+    # on row 90.
+    blob = np.zeros((240, 320), bool)
+    blob[40:140, 150:170] = True
+    end = upper_end_state(blob, TEMPLATE)
+    whole = moments_state(blob, TEMPLATE)
+    top = np.zeros_like(blob)
+    top[40:70, 150:170] = True
+    np.testing.assert_allclose(end, moments_state(top, TEMPLATE), atol=1e-6)
+    assert end[1] < whole[1] - 30
+    # Not twice as long as wide: no upper end, the moments are X_0.
+    square = np.zeros((240, 320), bool)
+    square[40:75, 150:170] = True
+    assert upper_end_state(square, TEMPLATE) is None
 
 
 def test_scan_finds_the_head_top_and_width() -> None:

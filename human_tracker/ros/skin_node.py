@@ -1,6 +1,7 @@
 """``skin_node``: skin colour segmentation (§3.2) as a ROS 2 node.
 
-Subscribes ``image`` (colour); publishes ``skin`` (mono8, 255 on pixels labelled skin). With
+Subscribes ``image`` (colour); publishes ``skin`` (mono8: 255 on the skin clusters, 128 on
+skin split from a mixed cluster, 0 elsewhere: :func:`~human_tracker.vision.skin.segment_skin`). With
 ``adaptation_rate`` > 0 it also subscribes the tracker's ``contour`` and adapts the skin
 classes to the skin inside it, never further than ``max_drift`` from the learnt classes;
 ``~/reset`` (std_srvs/Trigger) forgets the adaptation.
@@ -39,6 +40,8 @@ SKIN_PARAMETERS = (
     ParameterSpec('min_cluster_pixels', 'Clusters with fewer pixels are not skin.', 1, 10_000_000),
     ParameterSpec('variance_ratio', "Largest ratio of a cluster's (I2, I3) variance to its class's.", 0.01, 1000.0),
     ParameterSpec('match_scale', "Multiplies the model's match distance (> 1: more permissive).", 0.01, 100.0),
+    ParameterSpec('split_mixed', 'Split a refused cluster in two in (I2, I3); label the part a class accepts 128.'),
+    ParameterSpec('min_mixed_pixels', 'Smallest refused cluster that is split, pixels.', 1, 10_000_000),
 )
 
 

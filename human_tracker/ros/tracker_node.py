@@ -138,6 +138,7 @@ TARGET_PARAMETERS = (
     ParameterSpec('skin_margin', 'Dilation (pixels) of skin regions in the mask colour mode.', 0, 100),
     ParameterSpec('init_region', 'Region X_0 comes from: motion or skin.'),
     ParameterSpec('init_method', 'Initialisation from the moving region: scan (§2.5.2, head) or moments (§2.5.1).'),
+    ParameterSpec('upper_end_restarts', 'With moments, once started, X_0 of an elongated region at its upper end.'),
     ParameterSpec('upright_angle', 'θ_upright of the scan initialisation, rad.', -3.2, 3.2),
     ParameterSpec('min_blob_area', 'Smallest moving region (pixels) that can start or restart a track.', 1, 10_000_000),
     ParameterSpec(

@@ -8,6 +8,8 @@
   maximum of the row widths going down (the head's width, before the neck narrows), and
   place the template so its reference region hangs from that top row; θ = θ_upright. Row
   widths are extents (leftmost to rightmost moving pixel).
+- :func:`upper_end_state` (a departure, for a hand once it has been found): the moments of
+  the upper end of a blob that is a hand with its forearm.
 
 The particle cloud is then drawn from N(X_0, Σ) by the tracker (``initial_spread``).
 """
@@ -19,7 +21,15 @@ import numpy as np
 
 from human_tracker.vision.templates import ContourTemplate
 
-__all__ = ['blobs', 'first_local_maximum', 'largest_blob', 'moments_state', 'state_from_moments', 'state_from_scan']
+__all__ = [
+    'blobs',
+    'first_local_maximum',
+    'largest_blob',
+    'moments_state',
+    'state_from_moments',
+    'state_from_scan',
+    'upper_end_state',
+]
 
 
 def blobs(mask: np.ndarray, min_area: int = 1, limit: int = 1) -> list[np.ndarray]:
@@ -44,15 +54,9 @@ def largest_blob(mask: np.ndarray, min_area: int = 1) -> np.ndarray | None:
     return found[0] if found else None
 
 
-def moments_state(blob: np.ndarray, template: ContourTemplate) -> np.ndarray:
-    """X_0 = [x, y, s, θ] from the inertial moments of one blob (§2.5.1).
-
-    The blob is taken as the template's reference region (a hand, or a head alone): its
-    centroid is the region's centre, θ the angle of its major axis from the image vertical,
-    and its width ``4 sqrt(λ_minor)`` (the full width of a uniform ellipse) over the region's
-    width in template units gives s.
-    """
-    mask = blob.view(np.uint8)
+def _axes(mask: np.ndarray) -> tuple[float, float, np.ndarray, float, float]:
+    """Centroid (x, y), major axis (unit vector pointing down the image), and the full width
+    and length ``4 sqrt(λ)`` (those of a uniform ellipse) of a ``uint8`` blob mask."""
     # On the blob's bounding box: a tenth of the whole frame's time.
     left, top, width, height = cv2.boundingRect(mask)
     moments = cv2.moments(mask[top : top + height, left : left + width], binaryImage=True)
@@ -64,8 +68,20 @@ def moments_state(blob: np.ndarray, template: ContourTemplate) -> np.ndarray:
     major = eigenvectors[:, 1]
     if major[1] < 0:  # orient the major axis downwards so θ is near 0 for an upright blob
         major = -major
+    width, length = (4.0 * np.sqrt(max(value, 1e-12)) for value in eigenvalues)
+    return cx, cy, major, width, length
+
+
+def moments_state(blob: np.ndarray, template: ContourTemplate) -> np.ndarray:
+    """X_0 = [x, y, s, θ] from the inertial moments of one blob (§2.5.1).
+
+    The blob is taken as the template's reference region (a hand, or a head alone): its
+    centroid is the region's centre, θ the angle of its major axis from the image vertical,
+    and its width ``4 sqrt(λ_minor)`` (the full width of a uniform ellipse) over the region's
+    width in template units gives s.
+    """
+    cx, cy, major, width, _ = _axes(blob.view(np.uint8))
     theta = float(np.arctan2(-major[0], major[1]))
-    width = 4.0 * np.sqrt(max(eigenvalues[0], 1e-12))
     rx, ry, rw, rh = template.reference_box
     scale = width / rw
     # The reference region's centre sits at template offset (rx + rw/2, ry + rh/2).
@@ -73,6 +89,31 @@ def moments_state(blob: np.ndarray, template: ContourTemplate) -> np.ndarray:
     c, s = np.cos(theta), np.sin(theta)
     offset = np.array([c * centre[0] - s * centre[1], s * centre[0] + c * centre[1]])
     return np.array([cx - offset[0], cy - offset[1], scale, theta])
+
+
+def upper_end_state(
+    blob: np.ndarray, template: ContourTemplate, elongation: float = 2.0, end_widths: float = 1.3
+) -> np.ndarray | None:
+    """X_0 from the upper end of an elongated blob: a hand with its forearm.
+
+    A blob at least ``elongation`` times as long as wide is cut ``end_widths`` of its widths
+    from its upper end, along its major axis, and X_0 is that end's :func:`moments_state`;
+    None for a blob less elongated (a hand alone: its own moments). The hand is at the
+    forearm's upper end when it is raised or held before the body; the moments of the
+    whole blob put X_0 on the forearm.
+    """
+    mask = blob.view(np.uint8)
+    cx, cy, major, width, length = _axes(mask)
+    if length < elongation * width:
+        return None
+    left, top, w, h = cv2.boundingRect(mask)
+    rows, cols = np.nonzero(mask[top : top + h, left : left + w])
+    rows, cols = rows + top, cols + left
+    along = (cols - cx) * major[0] + (rows - cy) * major[1]
+    keep = along <= along.min() + end_widths * width
+    end = np.zeros_like(mask)
+    end[rows[keep], cols[keep]] = 1
+    return moments_state(end, template)
 
 
 def state_from_moments(mask: np.ndarray, template: ContourTemplate, min_area: int = 50) -> np.ndarray | None:

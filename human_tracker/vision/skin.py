@@ -18,7 +18,10 @@ The segmentation has the paper's two phases:
    looked at too, the principal peaks of the I1, I2 and I3 histograms and the valleys that
    bound them define modes; a pixel's cluster is its region and the modes its I1, I2, I3
    fall in. A cluster is labelled skin when the mean and the variance of its (I2, I3) match
-   a learnt skin class.
+   a learnt skin class. A departure (``split_mixed``): a cluster refused is split in two
+   by 2-means in (I2, I3) and each part judged alone, so that skin beside clothes of a
+   near colour, which the histograms do not separate, is labelled too
+   (:data:`MIXED_SKIN`, apart from the paper's :data:`SKIN`).
 
 The skin classes are Gaussian clusters in the (I2, I3) plane learnt from labelled samples
 (:func:`train_skin_model`, the ``human_tracker train-skin`` command) and shipped with the
@@ -41,7 +44,9 @@ from scipy.cluster.vq import kmeans2
 from scipy.ndimage import gaussian_filter1d
 
 __all__ = [
+    'MIXED_SKIN',
     'REGION_METHODS',
+    'SKIN',
     'SkinClass',
     'SkinModel',
     'SkinParameters',
@@ -56,6 +61,13 @@ __all__ = [
     'segment_skin',
     'train_skin_model',
 ]
+
+# The labels of :func:`segment_skin`: a cluster the skin classes accept (§3.2), and a part of a
+# mixed cluster they accept (``SkinParameters.split_mixed``). Non-zero is skin either way.
+SKIN = 255
+MIXED_SKIN = 128
+# 2-means iterations of a mixed cluster's split.
+MIXED_ITERATIONS = 5
 
 _OHTA = np.array([[1 / 3, 1 / 3, 1 / 3], [-1 / 2, 0.0, 1 / 2], [-1 / 4, 1 / 2, -1 / 4]], dtype=np.float32)
 
@@ -319,6 +331,14 @@ class SkinParameters:
         variance_ratio: Largest ratio between a cluster's (I2, I3) variance and the matching
             class's variance for the cluster to be skin.
         match_scale: Multiplies the model's ``match_distance`` (above 1: more permissive).
+        split_mixed: With ``cells``, a cluster of at least ``min_mixed_pixels`` refused is
+            split in two by 2-means in (I2, I3) and each part judged as a cluster; a part
+            accepted is labelled :data:`MIXED_SKIN` on the region's own cells (not on the
+            one-cell border it was grown by). A fist before a khaki jacket, or a hand before
+            the face, makes one region whose I1, I2, I3 histograms show one broad peak: its
+            cluster holds the skin and the jacket, too spread for a class, and neither is
+            labelled (hand2, frames 140-163: no skin, so the hand was lost on every run).
+        min_mixed_pixels: Smallest mixed cluster that is split, camera pixels.
     """
 
     regions: str = 'cells'
@@ -334,6 +354,8 @@ class SkinParameters:
     min_cluster_pixels: int = 16
     variance_ratio: float = 6.0
     match_scale: float = 1.5
+    split_mixed: bool = True
+    min_mixed_pixels: int = 64
 
     def validate(self) -> None:
         """Raise ValueError naming the first parameter out of its range."""
@@ -353,6 +375,7 @@ class SkinParameters:
             (self.min_cluster_pixels >= 1, f'min_cluster_pixels must be >= 1, got {self.min_cluster_pixels}'),
             (self.variance_ratio > 0, f'variance_ratio must be > 0, got {self.variance_ratio}'),
             (self.match_scale > 0, f'match_scale must be > 0, got {self.match_scale}'),
+            (self.min_mixed_pixels >= 1, f'min_mixed_pixels must be >= 1, got {self.min_mixed_pixels}'),
         ]
         for ok, message in checks:
             if not ok:
@@ -366,6 +389,7 @@ class SkinParameters:
             self,
             cell_size=max(2, round(self.cell_size * factor)),
             min_cluster_pixels=max(1, round(self.min_cluster_pixels * factor**2)),
+            min_mixed_pixels=max(1, round(self.min_mixed_pixels * factor**2)),
         )
 
 
@@ -592,6 +616,106 @@ def _cluster_statistics(
     return clusters, n, sums, squares
 
 
+@numba.njit(cache=True, nogil=True)
+def _two_means(
+    image: np.ndarray, clusters: np.ndarray, mixed: np.ndarray, iterations: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Each cluster flagged in ``mixed`` split in two by 2-means on its pixels' (I2, I3).
+
+    The two sides start on either side of the cluster's principal axis through its mean and
+    then, ``iterations`` times, each pixel goes to the side whose mean is nearer.
+
+    Returns:
+        The mixed clusters' pixels (``(N,)`` rows, columns and part ``2 c + side``), and per
+        part (``2 C``) the pixel count and the sums of I2, I3 and of their squares.
+    """
+    height, width = clusters.shape
+    size = mixed.shape[0]
+    count = 0
+    for v in range(height):
+        for u in range(width):
+            c = clusters[v, u]
+            if c >= 0 and mixed[c]:
+                count += 1
+    rows = np.empty(count, np.int64)
+    cols = np.empty(count, np.int64)
+    owner = np.empty(count, np.int64)
+    chroma = np.empty((count, 2))
+    moments = np.zeros((size, 6))  # n, sums of I2, I3, I2², I3², I2 I3
+    k = 0
+    for v in range(height):
+        for u in range(width):
+            c = clusters[v, u]
+            if c >= 0 and mixed[c]:
+                _, i2, i3 = _ohta_pixel(image[v, u])
+                rows[k], cols[k], owner[k] = v, u, c
+                chroma[k, 0], chroma[k, 1] = i2, i3
+                moments[c, 0] += 1.0
+                moments[c, 1] += i2
+                moments[c, 2] += i3
+                moments[c, 3] += i2 * i2
+                moments[c, 4] += i3 * i3
+                moments[c, 5] += i2 * i3
+                k += 1
+    # The principal axis of each cluster's (I2, I3), through its mean.
+    axis = np.zeros((size, 4))  # mean I2, mean I3, cos, sin
+    for c in range(size):
+        if moments[c, 0] > 0:
+            m = moments[c] / moments[c, 0]
+            angle = 0.5 * np.arctan2(2.0 * (m[5] - m[1] * m[2]), (m[3] - m[1] * m[1]) - (m[4] - m[2] * m[2]))
+            axis[c, 0], axis[c, 1], axis[c, 2], axis[c, 3] = m[1], m[2], np.cos(angle), np.sin(angle)
+    side = np.empty(count, np.int64)
+    for j in range(count):
+        a = axis[owner[j]]
+        side[j] = 1 if (chroma[j, 0] - a[0]) * a[2] + (chroma[j, 1] - a[1]) * a[3] > 0 else 0
+    centres = np.zeros((size, 2, 2))
+    counts = np.zeros((size, 2))
+    for _ in range(iterations):
+        centres[:] = 0.0
+        counts[:] = 0.0
+        for j in range(count):
+            c, t = owner[j], side[j]
+            centres[c, t, 0] += chroma[j, 0]
+            centres[c, t, 1] += chroma[j, 1]
+            counts[c, t] += 1.0
+        for j in range(count):
+            c = owner[j]
+            if counts[c, 0] == 0.0 or counts[c, 1] == 0.0:
+                continue  # one side is empty: nothing to split
+            d0 = (chroma[j, 0] - centres[c, 0, 0] / counts[c, 0]) ** 2 + (
+                chroma[j, 1] - centres[c, 0, 1] / counts[c, 0]
+            ) ** 2
+            d1 = (chroma[j, 0] - centres[c, 1, 0] / counts[c, 1]) ** 2 + (
+                chroma[j, 1] - centres[c, 1, 1] / counts[c, 1]
+            ) ** 2
+            side[j] = 1 if d1 < d0 else 0
+    part = 2 * owner + side
+    n = np.zeros(2 * size)
+    sums = np.zeros((2 * size, 2))
+    squares = np.zeros((2 * size, 2))
+    for j in range(count):
+        n[part[j]] += 1.0
+        for d in range(2):
+            sums[part[j], d] += chroma[j, d]
+            squares[part[j], d] += chroma[j, d] * chroma[j, d]
+    return rows, cols, part, n, sums, squares
+
+
+def _accepted(n: np.ndarray, sums: np.ndarray, squares: np.ndarray, model: SkinModel, p: SkinParameters) -> np.ndarray:
+    """Which clusters (pixel counts, sums of (I2, I3) and of their squares) are skin: populated,
+    their mean within a class, their variance within ``variance_ratio`` of that class's."""
+    skin = n >= p.min_cluster_pixels
+    # Most (region, mode) clusters are empty: judge the populated ones only.
+    populated = np.flatnonzero(skin)
+    means = sums[populated] / n[populated, None]
+    variances = np.maximum(squares[populated] / n[populated, None] - means**2, 0.0)
+    class_variances = np.array([np.diag(c.covariance) for c in model.classes])[model.nearest(means)]
+    skin[populated] = (model.distance(means) <= model.match_distance * p.match_scale) & np.all(
+        variances <= p.variance_ratio * class_variances, axis=1
+    )
+    return skin
+
+
 def segment_skin(
     image: np.ndarray,
     model: SkinModel,
@@ -605,7 +729,9 @@ def segment_skin(
         parameters: Segmentation constants (defaults when None).
 
     Returns:
-        ``(H, W) uint8``: 255 on pixels labelled skin, 0 elsewhere.
+        ``(H, W) uint8``: :data:`SKIN` (255) on the clusters labelled skin,
+        :data:`MIXED_SKIN` (128) on the parts of mixed clusters labelled skin
+        (``split_mixed``), 0 elsewhere.
     """
     p = parameters or SkinParameters()
     if image.ndim != 3 or image.shape[2] != 3:
@@ -632,16 +758,18 @@ def segment_skin(
     lookup = lookup.reshape(count, 3, -1)
     # A pixel's cluster: its region and its mode in each of I1, I2, I3 (max_peaks + 1 each).
     clusters, n, sums, squares = _cluster_statistics(image, region, lookup, p.histogram_bins, p.max_peaks + 1)
-    populated = n >= p.min_cluster_pixels
-    safe = np.maximum(n, 1.0)[:, None]
-    means = sums / safe
-    variances = np.maximum(squares / safe - means**2, 0.0)
-    is_skin = populated & (model.distance(means) <= model.match_distance * p.match_scale)
-    nearest = model.nearest(means)
-    class_variances = np.array([np.diag(c.covariance) for c in model.classes])[nearest]
-    is_skin &= np.all(variances <= p.variance_ratio * class_variances, axis=1)
+    is_skin = _accepted(n, sums, squares, model, p)
     # Cluster -1 (outside every region) reads the appended False.
-    return np.append(is_skin, False)[clusters].astype(np.uint8) * 255
+    labels = np.append(is_skin, False)[clusters].astype(np.uint8) * SKIN
+    mixed = ~is_skin & (n >= p.min_mixed_pixels)
+    if p.split_mixed and mixed.any():
+        rows, cols, part, part_n, part_sums, part_squares = _two_means(image, clusters, mixed, MIXED_ITERATIONS)
+        # On the region's own cells, not on the border it was grown by.
+        on_cells = (rows < extent[1]) & (cols < extent[0])
+        on_cells[on_cells] = cells[rows[on_cells] // p.cell_size, cols[on_cells] // p.cell_size] > 0
+        taken = _accepted(part_n, part_sums, part_squares, model, p)[part] & on_cells
+        labels[rows[taken], cols[taken]] = MIXED_SKIN
+    return labels
 
 
 @dataclass

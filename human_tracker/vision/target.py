@@ -48,11 +48,12 @@ from human_tracker.vision.appearance import AppearanceModel, colour_bins
 from human_tracker.vision.boxes import Box, BoxRelation, box_centre, centre_within
 from human_tracker.vision.camera_motion import estimate_camera_motion, move_states
 from human_tracker.vision.faces import FACE_ON_HEAD, Detection, FaceDetector, face_detector_available
-from human_tracker.vision.initialisation import blobs, moments_state, state_from_scan
+from human_tracker.vision.initialisation import blobs, moments_state, state_from_scan, upper_end_state
 from human_tracker.vision.measurement import edge_map
 from human_tracker.vision.morphology import disk
 from human_tracker.vision.particle_filter import gaussian_cloud
 from human_tracker.vision.resolution import same_frame, to_working, working_scale, working_shape
+from human_tracker.vision.skin import SKIN
 from human_tracker.vision.templates import ContourTemplate
 from human_tracker.vision.tracker import Appearance, ContourTracker, TrackerParameters, TrackEstimate, state_from_box
 
@@ -167,6 +168,13 @@ class TargetParameters:
             regions); when that cue is missing on a frame, the other one.
         init_method: ``scan`` (§2.5.2, head from the top of the moving region) or ``moments``
             (§2.5.1, blob moments; for a hand or a head alone).
+        upper_end_restarts: With ``moments``, once the filter has been started, X_0 of a
+            region at least twice as long as wide is its upper end's
+            (:func:`~human_tracker.vision.initialisation.upper_end_state`): a hand raised with
+            its forearm, or held before the body, restarts on the hand, not on the forearm
+            (hand2, twenty seeds from the box, with mixed skin clusters split: +0.046). Not
+            for the first start: hands merged with skin-coloured shapes beside them then start
+            off the hand.
         upright_angle: θ_upright of the scan initialisation, radians.
         min_blob_area: Smallest moving region, pixels, that can start or restart a track.
         region_closing: Radius (pixels) of the closing that joins a moving silhouette's parts
@@ -216,6 +224,7 @@ class TargetParameters:
     skin_margin: int = 4
     init_region: str = 'motion'
     init_method: str = 'scan'
+    upper_end_restarts: bool = False
     upright_angle: float = 0.0
     min_blob_area: int = 1000
     region_closing: int = 4
@@ -319,6 +328,7 @@ def parameters_for(target: str) -> TargetParameters:
         # comes back. A blurred waving hand keeps about half its contour's interior on skin.
         return TargetParameters(
             init_method='moments',
+            upper_end_restarts=True,
             init_region='skin',
             proposals='skin',
             avoid_faces=True,
@@ -553,6 +563,10 @@ class TargetTracker:
         """The mask X_0 is computed from (``init_region``), or None without the cues it needs;
         zero on the face to avoid (``avoid_faces``) and on ``exclude`` (boxes x, y, w, h, working
         pixels: other targets', other people's faces)."""
+        if skin is not None:
+            # Only the paper's skin clusters: parts of mixed ones (beside clothes of a near
+            # colour) join the hand to the skin-coloured things next to it, and its X_0 strays.
+            skin = np.where(skin == SKIN, skin, 0).astype(np.uint8)
         if self.parameters.init_region == 'skin' and skin is not None:
             region = skin
         else:
@@ -575,7 +589,11 @@ class TargetTracker:
             # tight mask so that still edges next to a moving person do not count as moving.
             region = cv2.morphologyEx(region, cv2.MORPH_CLOSE, disk(p.region_closing))
         if p.init_method == 'moments':
-            return [moments_state(b, self.template) for b in blobs(region, p.min_blob_area, p.hypothesis_blobs)]
+            starts = []
+            for blob in blobs(region, p.min_blob_area, p.hypothesis_blobs):
+                end = upper_end_state(blob, self.template) if p.upper_end_restarts and self.filter.initialised else None
+                starts.append(moments_state(blob, self.template) if end is None else end)
+            return starts
         start = state_from_scan(region, self.template, upright_angle=p.upright_angle, min_area=p.min_blob_area)
         return [] if start is None else [start]
 

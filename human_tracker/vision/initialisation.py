@@ -103,17 +103,18 @@ def upper_end_state(
     whole blob put X_0 on the forearm.
     """
     mask = blob.view(np.uint8)
-    cx, cy, major, width, length = _axes(mask)
+    # On the blob's bounding box, as the moments; the state moves back by its corner.
+    left, top, w, h = cv2.boundingRect(mask)
+    crop = mask[top : top + h, left : left + w]
+    cx, cy, major, width, length = _axes(crop)
     if length < elongation * width:
         return None
-    left, top, w, h = cv2.boundingRect(mask)
-    rows, cols = np.nonzero(mask[top : top + h, left : left + w])
-    rows, cols = rows + top, cols + left
+    rows, cols = np.nonzero(crop)
     along = (cols - cx) * major[0] + (rows - cy) * major[1]
     keep = along <= along.min() + end_widths * width
-    end = np.zeros_like(mask)
+    end = np.zeros_like(crop)
     end[rows[keep], cols[keep]] = 1
-    return moments_state(end, template)
+    return moments_state(end, template) + np.array([left, top, 0.0, 0.0])
 
 
 def state_from_moments(mask: np.ndarray, template: ContourTemplate, min_area: int = 50) -> np.ndarray | None:

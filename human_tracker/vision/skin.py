@@ -678,16 +678,16 @@ def _two_means(
             centres[c, t, 0] += chroma[j, 0]
             centres[c, t, 1] += chroma[j, 1]
             counts[c, t] += 1.0
+        for c in range(size):
+            for t in range(2):
+                if counts[c, t] > 0.0:
+                    centres[c, t] /= counts[c, t]  # the side's mean
         for j in range(count):
             c = owner[j]
             if counts[c, 0] == 0.0 or counts[c, 1] == 0.0:
                 continue  # one side is empty: nothing to split
-            d0 = (chroma[j, 0] - centres[c, 0, 0] / counts[c, 0]) ** 2 + (
-                chroma[j, 1] - centres[c, 0, 1] / counts[c, 0]
-            ) ** 2
-            d1 = (chroma[j, 0] - centres[c, 1, 0] / counts[c, 1]) ** 2 + (
-                chroma[j, 1] - centres[c, 1, 1] / counts[c, 1]
-            ) ** 2
+            d0 = (chroma[j, 0] - centres[c, 0, 0]) ** 2 + (chroma[j, 1] - centres[c, 0, 1]) ** 2
+            d1 = (chroma[j, 0] - centres[c, 1, 0]) ** 2 + (chroma[j, 1] - centres[c, 1, 1]) ** 2
             side[j] = 1 if d1 < d0 else 0
     part = 2 * owner + side
     n = np.zeros(2 * size)

@@ -26,6 +26,7 @@ from std_srvs.srv import Trigger
 from test_target import track
 
 from human_tracker.demo import node_arguments
+from human_tracker.evaluation.identity import identity_scores
 from human_tracker.evaluation.metrics import summarise
 from human_tracker.io.bags import (
     CAMERA_FRAME,
@@ -298,7 +299,8 @@ def test_a_person_pipeline_names_each_target_on_targets(tmp_path) -> None:
 
 def test_two_people_over_dds_are_the_offline_commands(tmp_path) -> None:
     """people_crossing with max_people:=2: each person's head on ``targets`` under one id, at the
-    offline command's positions, and following its own person's ground truth."""
+    offline command's positions, and following its own person's ground truth; every target
+    (the heads and the waving hand) kept under its id: no identity switch, IDF1 at least 0.9."""
     bag = REPO / 'bags' / 'people_crossing'
     frames = list(read_frames(bag))
     args = node_arguments(COMPRESSED_CAMERA_TOPIC, True) + ['-p', 'target:=person', '-p', 'max_people:=2']
@@ -310,17 +312,25 @@ def test_two_people_over_dds_are_the_offline_commands(tmp_path) -> None:
     k = default_camera_matrix(width, height)
     heads: dict[str, list[tuple[float, float] | None]] = {'person_1': [], 'person_2': []}
     ids: dict[str, set[int]] = {'person_1': set(), 'person_2': set()}
+    reported: list[dict[int, tuple[float, float, float, float]]] = []
     for frame in frames:
         seen: dict[str, tuple[float, float]] = {}
+        reported.append({})
         for odometry in collector.targets.get(frame.stamp_ns, []):
             person, name = odometry.child_frame_id.split('/')
             kind, ident = name.split('_')
+            centre = _pixel(odometry.pose.pose.position, k)
+            reported[-1][int(ident)] = (*centre, 0.0, 0.0)
             if kind == 'head':
-                seen[person] = _pixel(odometry.pose.pose.position, k)
+                seen[person] = centre
                 ids[person].add(int(ident))
         for person in heads:
             heads[person].append(seen.get(person))
     assert len(ids['person_1']) == len(ids['person_2']) == 1 and not ids['person_1'] & ids['person_2']
+    truth = {name: [frame.ground_truths[name] for frame in frames] for name in frames[0].ground_truths}
+    identity = identity_scores(truth, reported)
+    print('every target over DDS:', identity)
+    assert identity['id_switches'] == 0 and identity['idf1'] >= 0.9
     track_sequence(bag, tmp_path / 'offline', TrackOptions(max_people=2, video=False, progress=False))
     rows = list(csv.DictReader((tmp_path / 'offline' / 'poses.csv').open()))
     template = head_and_shoulders()

@@ -5,9 +5,10 @@ A reported target is an id (from 1) and its box on a frame; a ground-truth track
 its box on each frame. A true box is matched to a reported one whose centre is within
 ``threshold`` pixels of its own (the radius of precision at 20 px). A frame counts when at
 least one track is annotated on it, as in :mod:`~human_tracker.evaluation.metrics`: a sequence
-annotated on some frames says nothing of the others. Each time a target is taken up again
-after being lost it gets a new id, so a re-acquisition counts as an identity switch, as it
-does for a robot that keys what it knows of a person by the id.
+annotated on some frames says nothing of the others. A target taken up again under a new id
+(lost for longer than its id is held, or found elsewhere: :mod:`~human_tracker.vision.people`)
+counts as an identity switch, as it does for a robot that keys what it knows of a person by
+the id.
 """
 
 from __future__ import annotations

@@ -219,6 +219,15 @@ class TrackerNode(ImageStage):
             high=10,
             read_only=True,
         )
+        id_hold_frames = declare(
+            self,
+            'id_hold_frames',
+            15,
+            "With target person: frames a LOST target's id is held; taken up again near where it was, it gets it back.",
+            low=0,
+            high=1000,
+            read_only=True,
+        )
         kinds = kinds_of(target, hands)
         template_file = declare(
             self,
@@ -237,7 +246,12 @@ class TrackerNode(ImageStage):
         target_parameters = self.bind_parameters(parameters_for(self.kind), TARGET_PARAMETERS, self._apply_target)
         templates = {kind: make_template(kind, num_points) for kind in kinds} | {self.kind: self.template}
         self.people = PersonTracker(
-            kinds, filter_parameters, {self.kind: target_parameters}, templates, max_people if len(kinds) > 1 else 1
+            kinds,
+            filter_parameters,
+            {self.kind: target_parameters},
+            templates,
+            max_people if len(kinds) > 1 else 1,
+            id_hold_frames,
         )
         self.tracker = self.people.first(self.kind)
         if self.tracker.proposals_problem is not None:

@@ -13,22 +13,29 @@ face is not fresh (one taken up on a waving arm) hands nothing: kept off it, the
 its place to such a head (hand_wave as a person 0.95 -> 0.49).
 
 Several targets, one frame: a target's tracker is handed the boxes the other targets of its
-kind hold (``exclude``): it starts no filter, hypothesis or face proposal inside one, so a
-second person's head is looked for away from the first, a second hand away from the first.
-That keeps new filters apart; one that drifts onto a region another holds is caught by the
-occupancy rule: when the centre of one target lies in the central half of the box of another
-head (the whole box of another hand), the target taken up later is marked LOST (its id
-retired) and looks again elsewhere. The central half, not the whole box: a person standing behind another overlaps
-the other's box, and marking them LOST gave their place to the one in front
-(people_crossing, person_1/head 0.67 -> 1.00). Trackers wait their turn: a second hand runs
-only while the first is followed, the next person's trackers only while the person before
-has a head, so an idle slot costs nothing. A hand belongs to the person whose head is
-nearest above it.
+kind hold (``exclude``; a hand's with the forearm below it): it starts no filter, hypothesis
+or face proposal inside one, so a second person's head is looked for away from the first, a
+second hand away from the first. That keeps new filters apart; one that drifts onto a region
+another holds is caught by the occupancy rule: when the centre of one target lies in the
+central half of the box of another head (the whole box of another hand), the target taken up
+later is marked LOST (its id retired) and looks again elsewhere. The central half, not the
+whole box: a person standing behind another overlaps the other's box, and marking them LOST
+gave their place to the one in front (people_crossing, person_1/head 0.67 -> 1.00). Trackers
+wait their turn: a second hand runs only while the first is followed, the next person's head
+only while the person before has a head, their hands only while their own head is followed,
+so an idle slot costs nothing. A person after the first is taken up only by a face found on
+their head, and a hand only where its own person's head is the followed head nearest above
+it (:meth:`PersonTracker._may_take_up`): otherwise it stays LOST and another slot takes it.
+A hand keeps off the faces of the other people's followed heads, found on them lately or not.
 
 Ids: every time a target is taken up (its filter starts TRACKING after WAITING or LOST, or
 restarts farther than the target's width from where it was: onto another face, another
-person) it gets a new id, never reused while the tracker lives; a target LOST keeps no id. A
-consumer that sees the same id on two frames sees the same followed target.
+person) it gets a new id, never reused while the tracker lives. A target LOST reports no id,
+but its id is held for ``id_hold_frames``: taken up again within ``HOLD_REACH`` widths of
+where it was last followed, it is the same target come out from behind something (a hand
+passing behind the walker's head on people_crossing, LOST for 6 frames), and gets its id
+back; the occupancy rule, a jump or a slot's turn ending retires it at once. A consumer that
+sees the same id on two frames sees the same target.
 """
 
 from __future__ import annotations
@@ -43,7 +50,6 @@ from human_tracker.vision.boxes import box_centre, centre_within
 from human_tracker.vision.faces import FACE_ON_HEAD
 from human_tracker.vision.target import (
     LOST,
-    TRACKING,
     SharedFrames,
     TargetParameters,
     TargetResult,
@@ -64,6 +70,10 @@ TARGETS = (*KINDS, 'person')
 # that); for hands the whole box (two hands that close are one: with the half, hand2 with two
 # hands 0.48 -> 0.41).
 SAME_REGION = {'head': 0.5, 'hand': 1.0}
+
+HOLD_REACH = 2.0
+"""How far from where a LOST target was last followed, in its widths (its scale), it may be
+taken up again under its held id."""
 
 MAX_HANDS = 2
 """The most hands a person has."""
@@ -86,8 +96,9 @@ class TrackedTarget(NamedTuple):
         id: The target's id while it is followed (from 1, never reused); 0 while it is not
             (WAITING or LOST).
         kind: ``head`` or ``hand``.
-        person: The person the target belongs to (from 1): a head's own; a hand's, the
-            person whose followed head is nearest above it (its own slot's without one).
+        person: The person the target belongs to (from 1), its slot's: a hand is taken up
+            only where that person's head is the followed head nearest above it (or no
+            head is followed above it).
         result: The target tracker's outcome, in the camera's pixels.
         name: The tracker's slot: ``head``, ``hand``, ``hand_2`` for the first person,
             ``person_2/head``, ... for the others.
@@ -118,6 +129,9 @@ class Slot:
         id: Its current id (0 while not followed).
         last_state: Its last estimate's state, camera pixels.
         box: Its box on the last frame it was followed (camera pixels), None otherwise.
+        held_id: The id it had when it was LOST, while that may come back (0: none).
+        held_state: Its state on the last frame it was followed, camera pixels.
+        held_frames: Frames it has been LOST.
     """
 
     name: str
@@ -128,6 +142,9 @@ class Slot:
     id: int = 0
     last_state: np.ndarray | None = None
     box: tuple[float, float, float, float] | None = None
+    held_id: int = 0
+    held_state: np.ndarray | None = None
+    held_frames: int = 0
 
 
 @dataclass
@@ -144,6 +161,9 @@ class PersonTracker:
         templates: Each kind's contour (the built-in one where absent).
         max_people: The most people followed at once (from 1; more than one needs a head,
             by which a person is found).
+        id_hold_frames: LOST frames a target's id is held for it (0: a target taken up again
+            always gets a new id). Half a second at 30 Hz: about the time a hand or a face is
+            hidden by someone walking past.
     """
 
     kinds: tuple[str, ...] = ('head',)
@@ -151,6 +171,7 @@ class PersonTracker:
     parameters: dict[str, TargetParameters] = field(default_factory=dict)
     templates: dict[str, ContourTemplate] = field(default_factory=dict)
     max_people: int = 1
+    id_hold_frames: int = 15
     slots: list[Slot] = field(init=False)
     last_id: int = field(default=0, init=False)
 
@@ -160,6 +181,8 @@ class PersonTracker:
             raise ValueError(f'kinds must be a head, a hand, or a head and up to {MAX_HANDS} hands, got {self.kinds}')
         if self.max_people < 1 or (self.max_people > 1 and 'head' not in self.kinds):
             raise ValueError(f'max_people must be >= 1, and 1 without a head, got {self.max_people}')
+        if self.id_hold_frames < 0:
+            raise ValueError(f'id_hold_frames must be >= 0, got {self.id_hold_frames}')
         self.slots = []
         for person in range(1, self.max_people + 1):
             for place, kind in enumerate(self.kinds):
@@ -226,6 +249,7 @@ class PersonTracker:
         """
         ran: list[tuple[Slot, TargetResult]] = []
         faces: dict[int, tuple[float, float, float, float] | None] = {}  # by person
+        followed: dict[int, tuple[float, float, float, float]] = {}  # where each followed head puts its face
         # Trackers with the same working settings (the hands; the heads) reduce the frame once.
         shared = {} if shared is None else shared
         # Heads first: a hand keeps off the faces they find, every person's.
@@ -235,40 +259,91 @@ class PersonTracker:
                     self._clear(slot)  # its turn is over: it starts afresh when it comes again
                 continue
             tracker = slot.tracker
-            was_tracking = tracker.status == TRACKING
-            exclude = [o.box for o in self.slots if o is not slot and o.kind == slot.kind and o.box is not None]
+            # A hand keeps off the other hands and the forearm below them (one with no hand of
+            # its person in view took up the wrist under another's).
+            exclude = [
+                _with_forearm(o.box) if slot.kind == 'hand' else o.box
+                for o in self.slots
+                if o is not slot and o.kind == slot.kind and o.box is not None
+            ]
             if slot.kind == 'head':
                 single = skin if len(self.kinds) == 1 else None
                 result = tracker.process(image, motion, single, exclude=exclude, shared=shared)
                 faces[slot.person] = self._face_of(tracker, result)
+                if result.tracking:
+                    followed[slot.person] = FACE_ON_HEAD.box(result.estimate.state)
             else:
-                others = [f for person, f in faces.items() if person != slot.person and f is not None]
+                # Another person's face is kept off while their head is followed, found on it
+                # lately or not: one half hidden behind the walker's head took up a hand.
+                others = [f for person, f in followed.items() if person != slot.person]
                 face = faces.get(slot.person)
                 result = tracker.process(image, motion, skin, face=face, exclude=exclude, avoid=others, shared=shared)
-            if result.tracking and (not was_tracking or slot.id == 0 or self._jumped(slot, result)):
+            ran.append((slot, self._identify(slot, result)))
+        ran = self._keep_apart(sorted(ran, key=lambda run: self.slots.index(run[0])))
+        return [TrackedTarget(slot.id, slot.kind, slot.person, result, slot.name) for slot, result in ran]
+
+    def _identify(self, slot: Slot, result: TargetResult) -> TargetResult:
+        """The slot's id and box after its tracker's ``result`` on this frame; the result, LOST
+        for a target the slot may not take up (:meth:`_may_take_up`)."""
+        if result.tracking and self._jumped(slot, result):
+            slot.id = 0  # another target now: the one followed is gone
+        if result.tracking and slot.id == 0:
+            state, held = result.estimate.state, slot.held_state
+            if held is not None and float(np.hypot(*(state[:2] - held[:2]))) <= HOLD_REACH * held[2]:
+                slot.id = slot.held_id
+            elif not self._may_take_up(slot, result):
+                slot.tracker.mark_lost()
+                result = replace(result, status=LOST)
+            else:
                 self.last_id += 1
                 slot.id = self.last_id
-            elif not result.tracking:
-                slot.id = 0
-            if result.estimate is not None:
-                slot.last_state = result.estimate.state
-            slot.box = result.estimate.box if result.tracking else None
-            ran.append((slot, result))
-        ran = self._keep_apart(sorted(ran, key=lambda run: self.slots.index(run[0])))
-        return [TrackedTarget(slot.id, slot.kind, self._person_of(slot), result, slot.name) for slot, result in ran]
+            if slot.id:
+                self._retire(slot)
+        elif not result.tracking and slot.id:
+            if self.id_hold_frames and slot.last_state is not None:
+                slot.held_id, slot.held_state, slot.held_frames = slot.id, slot.last_state, 1
+            slot.id = 0
+        elif not result.tracking and slot.held_id:
+            slot.held_frames += 1
+            if slot.held_frames > self.id_hold_frames:
+                self._retire(slot)
+        if result.estimate is not None:
+            slot.last_state = result.estimate.state
+        slot.box = result.estimate.box if result.tracking else None
+        return result
+
+    def _may_take_up(self, slot: Slot, result: TargetResult) -> bool:
+        """Whether a target new to ``slot`` is one it may follow: a later person's head only
+        with a face found on it (taken up on the moving region, one settled on the first
+        person's waving fingers before the second person came in); a hand only where its own
+        person's head is the nearest above it (the walker's slot, whose hands are out of view,
+        took the waving hand of the person behind: theirs to take up)."""
+        if slot.kind == 'head':
+            return slot.person == 1 or slot.tracker.detector is None or slot.tracker.has_fresh_face
+        return self._person_of(slot, result.estimate.box) == slot.person
+
+    @staticmethod
+    def _retire(slot: Slot) -> None:
+        """Forget the id a slot held for its LOST target."""
+        slot.held_id = slot.held_frames = 0
+        slot.held_state = None
 
     def _runs(self, slot: Slot) -> bool:
         """Whether ``slot`` takes its turn on this frame: the first person's head and first hand
-        always; a second hand while the first is followed; another person's targets while the
-        person before has a head followed; any target while it is followed itself."""
+        always; a second hand while the first is followed; another person's head while the
+        person before has a head followed, their first hand while their own head is followed;
+        any target while it is followed itself."""
         if slot.box is not None:
             return True
-        # The slot it waits for: the first hand of a second; the head of the person before.
+        # The slot it waits for: the first hand of a second; a later person's head the head of
+        # the person before, their hand their own head (without it, skin of the room or of a
+        # face not yet found starts hands no one has: people_crossing's walker).
         waits_for = [
             o
             for o in self.slots
             if (o.person == slot.person and slot.hand > 1 and o.hand == slot.hand - 1)
-            or (o.person == slot.person - 1 and o.kind == 'head')
+            or (slot.kind == 'head' and o.person == slot.person - 1 and o.kind == 'head')
+            or (slot.hand == 1 and slot.person > 1 and o.person == slot.person and o.kind == 'head')
         ]
         return all(o.box is not None for o in waits_for)
 
@@ -289,15 +364,16 @@ class PersonTracker:
             if taken:
                 slot.tracker.mark_lost()
                 slot.id, slot.box = 0, None
+                self._retire(slot)
                 result = replace(result, status=LOST)
             kept.append((slot, result))
         return kept
 
-    def _person_of(self, slot: Slot) -> int:
-        """A head's own person; a hand's: the person whose followed head is nearest above it."""
-        if slot.kind == 'head' or slot.box is None:
+    def _person_of(self, slot: Slot, box: tuple[float, float, float, float]) -> int:
+        """A head's own person; a hand's at ``box``: the person whose followed head is nearest above it."""
+        if slot.kind == 'head':
             return slot.person
-        x, y = box_centre(slot.box)
+        x, y = box_centre(box)
         heads = [o for o in self.slots if o.kind == 'head' and o.box is not None and box_centre(o.box)[1] < y]
         if not heads:
             return slot.person
@@ -306,6 +382,7 @@ class PersonTracker:
     def _clear(self, slot: Slot) -> None:
         slot.tracker.reset()
         slot.id, slot.last_state, slot.box = 0, None, None
+        self._retire(slot)
 
     @staticmethod
     def _jumped(slot: Slot, result: TargetResult) -> bool:
@@ -322,3 +399,9 @@ class PersonTracker:
         while a face has just been found on it, else None (a head that slid onto the raised arm
         would send the hand to the face): the hand's own detector looks then."""
         return FACE_ON_HEAD.box(result.estimate.state) if result.tracking and head.has_fresh_face else None
+
+
+def _with_forearm(box: tuple[float, float, float, float]) -> tuple[float, float, float, float]:
+    """A hand's box (x, y, w, h) and its own height below it, where its wrist and forearm are."""
+    x, y, w, h = box
+    return (x, y, w, 2.0 * h)

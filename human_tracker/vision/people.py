@@ -320,7 +320,7 @@ class PersonTracker:
         took the waving hand of the person behind: theirs to take up)."""
         if slot.kind == 'head':
             return slot.person == 1 or slot.tracker.detector is None or slot.tracker.has_fresh_face
-        return self._person_of(slot, result.estimate.box) == slot.person
+        return self._person_above(result.estimate.box) in (None, slot.person)
 
     @staticmethod
     def _retire(slot: Slot) -> None:
@@ -369,14 +369,12 @@ class PersonTracker:
             kept.append((slot, result))
         return kept
 
-    def _person_of(self, slot: Slot, box: tuple[float, float, float, float]) -> int:
-        """A head's own person; a hand's at ``box``: the person whose followed head is nearest above it."""
-        if slot.kind == 'head':
-            return slot.person
+    def _person_above(self, box: tuple[float, float, float, float]) -> int | None:
+        """The person whose followed head is nearest above ``box`` (x, y, w, h), None without one."""
         x, y = box_centre(box)
         heads = [o for o in self.slots if o.kind == 'head' and o.box is not None and box_centre(o.box)[1] < y]
         if not heads:
-            return slot.person
+            return None
         return min(heads, key=lambda o: float(np.hypot(*np.subtract(box_centre(o.box), (x, y))))).person
 
     def _clear(self, slot: Slot) -> None:

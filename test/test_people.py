@@ -238,6 +238,19 @@ def test_a_later_persons_head_needs_a_face_and_a_hand_its_persons_head() -> None
     assert people._identify(second_hand, near_second).tracking and second_hand.id == 3
 
 
+def test_a_hand_keeps_off_its_own_face_hidden_behind_another_person() -> None:
+    """The faces a hand keeps off besides its own: the other people's followed heads'; and its
+    own person's, where no face is handed for it now but one was found on the head before,
+    only among other people (alone, the hand itself hides it)."""
+    own, other = (100.0, 50.0, 40.0, 40.0), (300.0, 60.0, 40.0, 40.0)
+    avoid = PersonTracker._faces_to_avoid
+    assert avoid(1, {1: own}, {1}, None) == []
+    assert avoid(1, {1: own, 2: other}, {1, 2}, own) == [other]  # handed: its own detector is off
+    assert avoid(1, {1: own, 2: other}, {1, 2}, None) == [other, own]
+    assert avoid(1, {1: own, 2: other}, {2}, None) == [other]  # a head never seen with a face
+    assert avoid(2, {1: own, 2: other}, {1, 2}, None) == [own, other]
+
+
 def test_track_a_person_offline(tmp_path, capsys) -> None:
     """hand_wave with --target person: a row per target per frame with its id, kind and person;
     the head and the hand start by themselves, the hand is scored against the hand's truth, by

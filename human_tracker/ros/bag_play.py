@@ -36,7 +36,7 @@ from std_msgs.msg import Bool
 from std_srvs.srv import Trigger
 
 from human_tracker.io.bags import BagError, guarded, open_bag
-from human_tracker.ros.common import LATCHED_QOS, RESULT_QOS, node_status, publish_diagnostics
+from human_tracker.ros.common import LATCHED_QOS, RESULT_QOS, node_status, publish_diagnostics, shutdown
 
 __all__ = ['BagPlayer', 'main', 'message_class']
 
@@ -283,7 +283,7 @@ def main(args: list[str] | None = None) -> int:
             spinner.join(timeout=5.0)
         if player is not None:
             player.destroy_node()
-        rclpy.try_shutdown()
+        shutdown()
     return code
 
 

@@ -8,6 +8,7 @@ import weakref
 from dataclasses import dataclass, field
 from typing import Any
 
+import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.node import Node
@@ -27,6 +28,7 @@ __all__ = [
     'diagnostic_status',
     'node_status',
     'publish_diagnostics',
+    'shutdown',
 ]
 
 RESULT_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST)
@@ -250,3 +252,18 @@ def publish_diagnostics(node: Node, publisher: Any, statuses: list[DiagnosticSta
     array_ = DiagnosticArray(status=statuses)
     array_.header.stamp = node.get_clock().now().to_msg()
     publisher.publish(array_)
+
+
+def shutdown() -> None:
+    """Shut rclpy's default context down if it is still up.
+
+    ``rclpy.try_shutdown`` checks the context and then shuts it down, but on Ctrl-C rclpy's
+    signal handler shuts it down from its own thread without taking the same lock: between the
+    check and the call the context can go, and the call raises (a node stopped by SIGINT then
+    exited with 1 instead of 0, now and then).
+    """
+    try:
+        rclpy.try_shutdown()
+    except RuntimeError:  # rclpy's RCLError: rcl_shutdown already called
+        if rclpy.ok():
+            raise

@@ -48,6 +48,7 @@ from human_tracker.ros.common import (
     diagnostic_status,
     image_qos,
     publish_diagnostics,
+    shutdown,
 )
 from human_tracker.ros.image_conversion import ImageConversionError, message_to_bgr8
 from human_tracker.threads import default_threads, use_threads
@@ -427,7 +428,7 @@ def run_nodes(
             executor.remove_node(node)
             node.destroy_node()
         executor.shutdown()
-        rclpy.try_shutdown()
+        shutdown()
     return code
 
 

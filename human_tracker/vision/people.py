@@ -6,18 +6,19 @@ hands (open or closed hand contours), each its own :class:`~human_tracker.vision
 over the same frames and cues; up to ``max_people`` people are followed. The heads run first
 on each frame, and the hands use what they found of the faces: a hand's tracker must keep off
 faces (a face is skin of about a hand's size), and its own detector cannot tell whose face it
-finds, nor does a second hand's, run every few frames, keep it off the face between its
-runs. So where there are more hands than one (a second hand, other people), a hand is handed
-where its person's head's contour puts the face while a face has just been found on that
-head, instead of running its own detector (which looks when the head has no fresh face:
+finds, nor does a second hand's, run every few frames, keep it off the face between its runs.
+So where there are more hands than one (a second hand, other people), a hand is handed where
+its person's head's contour puts the face while a face has just been found on that head,
+instead of running its own detector (which looks when the head has no fresh face:
 :meth:`PersonTracker._face_of`). Every hand keeps off where the other people's followed heads
-put their faces, found on them lately or not (``avoid``). A head whose face is not fresh (one
-taken up on a waving arm) hands nothing: kept off it, the hand lost its place to such a head
-(hand_wave as a person 0.95 -> 0.49). One person's only hand looks itself, as a hand alone: a
-face the hand hides is not found then, where the head's face, fresh for a few frames after it
-was last found, kept the hand passing in front of it off (hand2, twenty seeds: 0.588 -> 0.623
-from the hand's box, 0.584 -> 0.612 without; handed nothing, a second hand settled on the
-face: hand2 with two hands, ten seeds, 0.519 -> 0.410).
+put their faces, found on them lately or not, and, among other people, its own person's face
+while it is hidden (``avoid``: :meth:`PersonTracker._faces_to_avoid`). A head whose face is not
+fresh (one taken up on a waving arm) hands nothing: kept off it, the hand lost its place to
+such a head (hand_wave as a person 0.95 -> 0.49). One person's only hand looks itself, as a
+hand alone: a face the hand hides is not found then, where the head's face, fresh for a few
+frames after it was last found, kept the hand passing in front of it off (hand2, twenty seeds:
+0.588 -> 0.623 from the hand's box, 0.584 -> 0.612 without; handed nothing, a second hand
+settled on the face: hand2 with two hands, ten seeds, 0.519 -> 0.410).
 
 Several targets, one frame: a target's tracker is handed the boxes the other targets of its
 kind hold (``exclude``; a hand's with the forearm below it): it starts no filter, hypothesis
@@ -52,7 +53,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from human_tracker.vision.boxes import box_centre, centre_within
+from human_tracker.vision.boxes import Box, box_centre, centre_within
 from human_tracker.vision.faces import FACE_ON_HEAD
 from human_tracker.vision.target import (
     LOST,
@@ -262,6 +263,7 @@ class PersonTracker:
         ran: list[tuple[Slot, TargetResult]] = []
         faces: dict[int, tuple[float, float, float, float] | None] = {}  # by person
         followed: dict[int, tuple[float, float, float, float]] = {}  # where each followed head puts its face
+        faced: set[int] = set()  # the people whose followed head a face was found on
         # Trackers with the same working settings (the hands; the heads) reduce the frame once.
         shared = {} if shared is None else shared
         # Heads first: a hand keeps off the faces they find, every person's.
@@ -285,12 +287,12 @@ class PersonTracker:
                     faces[slot.person] = self._face_of(tracker, result)
                 if result.tracking:
                     followed[slot.person] = FACE_ON_HEAD.box(result.estimate.state)
+                    if tracker.face_relation is not None:
+                        faced.add(slot.person)
             else:
-                # Another person's face is kept off while their head is followed, found on it
-                # lately or not: one half hidden behind the walker's head took up a hand.
-                others = [f for person, f in followed.items() if person != slot.person]
                 face = faces.get(slot.person)
-                result = tracker.process(image, motion, skin, face=face, exclude=exclude, avoid=others, shared=shared)
+                avoid = self._faces_to_avoid(slot.person, followed, faced, face)
+                result = tracker.process(image, motion, skin, face=face, exclude=exclude, avoid=avoid, shared=shared)
             ran.append((slot, self._identify(slot, result)))
         ran = self._keep_apart(sorted(ran, key=lambda run: self.slots.index(run[0])))
         return [TrackedTarget(slot.id, slot.kind, slot.person, result, slot.name) for slot, result in ran]
@@ -334,6 +336,20 @@ class PersonTracker:
         if slot.kind == 'head':
             return slot.person == 1 or slot.tracker.detector is None or slot.tracker.has_fresh_face
         return self._person_above(result.estimate.box) in (None, slot.person)
+
+    @staticmethod
+    def _faces_to_avoid(person: int, followed: dict[int, Box], faced: set[int], face: Box | None) -> list[Box]:
+        """The faces a hand of ``person`` keeps off besides its own (``avoid``): where the other
+        people's followed heads put theirs (``followed``, by person), found on them lately or
+        not (one half hidden behind the walker's head took up a hand). Among other people, the
+        person's own too while it is not handed (``face`` None: no face found on their head
+        lately) though one was found on it before (``faced``): hidden behind someone, a hand
+        restarted on the first person's forehead behind the walker's head. Alone, it is the
+        hand that hides it, and it may pass in front."""
+        avoid = [box for other, box in followed.items() if other != person]
+        if avoid and face is None and person in faced:
+            avoid.append(followed[person])
+        return avoid
 
     @staticmethod
     def _retire(slot: Slot) -> None:

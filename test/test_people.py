@@ -148,7 +148,7 @@ def test_the_hand_keeps_off_the_face_found_on_the_head() -> None:
             else:
                 placed = FACE_ON_HEAD.box(head_outcome.result.estimate.state)
                 np.testing.assert_allclose(np.array(hand.last_face) / hand.scale, placed, atol=1e-6)
-        assert hand.frames == runs + (3 if max_people == 1 else 0)  # handed the face, the hand's detector did not run
+        assert hand.frames == runs + (3 if max_people == 1 else 0)  # handed the face, its detector did not run
         if max_people == 1:
             continue
         head.detector.detect = head.detector.detect_near = lambda *a, **k: []

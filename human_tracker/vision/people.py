@@ -6,19 +6,19 @@ hands (open or closed hand contours), each its own :class:`~human_tracker.vision
 over the same frames and cues; up to ``max_people`` people are followed. The heads run first
 on each frame, and the hands use what they found of the faces: a hand's tracker must keep off
 faces (a face is skin of about a hand's size), and its own detector cannot tell whose face it
-finds, nor does a second hand's, run every few frames, keep it off the face between its runs.
-So where there are more hands than one (a second hand, other people), a hand is handed where
-its person's head's contour puts the face while a face has just been found on that head,
-instead of running its own detector (which looks when the head has no fresh face:
-:meth:`PersonTracker._face_of`). Every hand keeps off where the other people's followed heads
-put their faces, found on them lately or not, and, among other people, its own person's face
-while it is hidden (``avoid``: :meth:`PersonTracker._faces_to_avoid`). A head whose face is not
-fresh (one taken up on a waving arm) hands nothing: kept off it, the hand lost its place to
-such a head (hand_wave as a person 0.95 -> 0.49). One person's only hand looks itself, as a
-hand alone: a face the hand hides is not found then, where the head's face, fresh for a few
-frames after it was last found, kept the hand passing in front of it off (hand2, twenty seeds:
-0.588 -> 0.623 from the hand's box, 0.584 -> 0.612 without; handed nothing, a second hand
-settled on the face: hand2 with two hands, ten seeds, 0.519 -> 0.410).
+finds, and a second hand that looked for the face itself settled on it. So where there are more
+hands than one (a second hand, other people), a hand is handed where its person's head's
+contour puts the face while a face has just been found on that head, instead of running its own
+detector (which looks when the head has no fresh face: :meth:`PersonTracker._face_of`). Every
+hand keeps off where the other people's followed heads put their faces, found on them lately or
+not, and, among other people, its own person's face while it is hidden (``avoid``:
+:meth:`PersonTracker._faces_to_avoid`). A head whose face is not fresh (one taken up on a
+waving arm) hands nothing: kept off it, the hand lost its place to such a head (hand_wave as a
+person 0.95 -> 0.49). One person's only hand looks itself, as a hand alone: a face the hand
+hides is not found then, where the head's face, fresh for a few frames after it was last found,
+kept the hand passing in front of it off (hand2, twenty seeds: 0.588 -> 0.623 from the hand's
+box, 0.584 -> 0.612 without; handed nothing, a second hand settled on the face: hand2 with two
+hands, ten seeds, 0.519 -> 0.410).
 
 Several targets, one frame: a target's tracker is handed the boxes the other targets of its
 kind hold (``exclude``; a hand's with the forearm below it): it starts no filter, hypothesis
@@ -261,8 +261,8 @@ class PersonTracker:
             slots' order.
         """
         ran: list[tuple[Slot, TargetResult]] = []
-        faces: dict[int, tuple[float, float, float, float] | None] = {}  # by person
-        followed: dict[int, tuple[float, float, float, float]] = {}  # where each followed head puts its face
+        faces: dict[int, Box | None] = {}  # by person
+        followed: dict[int, Box] = {}  # where each followed head puts its face
         faced: set[int] = set()  # the people whose followed head a face was found on
         # Trackers with the same working settings (the hands; the heads) reduce the frame once.
         shared = {} if shared is None else shared

@@ -282,7 +282,9 @@ class PersonTracker:
             ]
             if slot.kind == 'head':
                 single = skin if len(self.kinds) == 1 else None
-                result = tracker.process(image, motion, single, exclude=exclude, shared=shared)
+                # Identified before the hands look: a head this slot may not take up (a later
+                # person's without a face) is LOST, no one's face to hand over or keep off.
+                result = self._identify(slot, tracker.process(image, motion, single, exclude=exclude, shared=shared))
                 if self.hands_handed_faces:
                     faces[slot.person] = self._face_of(tracker, result)
                 if result.tracking:
@@ -292,8 +294,9 @@ class PersonTracker:
             else:
                 face = faces.get(slot.person)
                 avoid = self._faces_to_avoid(slot.person, followed, faced, face)
-                result = tracker.process(image, motion, skin, face=face, exclude=exclude, avoid=avoid, shared=shared)
-            ran.append((slot, self._identify(slot, result)))
+                found = tracker.process(image, motion, skin, face=face, exclude=exclude, avoid=avoid, shared=shared)
+                result = self._identify(slot, found)
+            ran.append((slot, result))
         ran = self._keep_apart(sorted(ran, key=lambda run: self.slots.index(run[0])))
         return [TrackedTarget(slot.id, slot.kind, slot.person, result, slot.name) for slot, result in ran]
 

@@ -58,6 +58,7 @@ from human_tracker.evaluation.accuracy import (
 from human_tracker.io.bags import read_frames
 from human_tracker.io.images import stamp_ns
 from human_tracker.ros.collector import PoseCollector
+from human_tracker.ros.common import shutdown
 from human_tracker.ros.image_conversion import array_to_image, message_to_bgr8
 from human_tracker.ros.processes import NodeProcess, use_ros_environment
 from human_tracker.threads import default_threads, use_threads
@@ -504,7 +505,7 @@ def main(argv: list[str] | None = None) -> int:
                     rows.append(measure_latency(layout, rate, frames, box, options.out, env))
                     print(json.dumps(rows[-1]))
         finally:
-            rclpy.try_shutdown()
+            shutdown()
         results['latency'] = rows
         columns = [
             'layout',

@@ -28,6 +28,7 @@ from human_tracker.evaluation.metrics import summarise
 from human_tracker.io.bags import CAMERA_INFO_TOPIC, read_frames
 from human_tracker.offline import POSE_COLUMNS
 from human_tracker.ros.collector import PoseCollector
+from human_tracker.ros.common import shutdown
 from human_tracker.ros.image_conversion import message_to_bgr8
 from human_tracker.ros.processes import NodeProcess, use_ros_environment
 from human_tracker.vision.templates import fit_template, head_and_shoulders
@@ -128,7 +129,7 @@ def run_demo(bag: Path, out: Path, *, domain_id: int | None = None, rate: float 
         player.stop()
         executor.shutdown()
         collector.destroy_node()
-        rclpy.try_shutdown()
+        shutdown()
 
     template = head_and_shoulders()
     predicted: list[tuple[float, float, float, float] | None] = []

@@ -20,6 +20,7 @@ import psutil
 import rclpy
 
 from human_tracker.io.bags import read_frames
+from human_tracker.ros.common import shutdown
 from human_tracker.ros.image_conversion import array_to_image, message_to_bgr8
 from human_tracker.ros.pipeline import build_pipeline
 
@@ -50,7 +51,7 @@ def soak(bag: Path, frames: int, warm_up: int = 1000) -> dict[str, object]:
     finally:
         for node in nodes:
             node.destroy_node()
-        rclpy.try_shutdown()
+        shutdown()
     elapsed = time.monotonic() - started
     return {
         'frames': frames,

@@ -401,7 +401,7 @@ class PersonTracker:
             kept.append((slot, result))
         return kept
 
-    def _person_above(self, box: tuple[float, float, float, float]) -> int | None:
+    def _person_above(self, box: Box) -> int | None:
         """The person whose followed head is nearest above ``box`` (x, y, w, h), None without one."""
         x, y = box_centre(box)
         heads = [o for o in self.slots if o.kind == 'head' and o.box is not None and box_centre(o.box)[1] < y]
@@ -431,7 +431,7 @@ class PersonTracker:
         return FACE_ON_HEAD.box(result.estimate.state) if result.tracking and head.has_fresh_face else None
 
 
-def _with_forearm(box: tuple[float, float, float, float]) -> tuple[float, float, float, float]:
+def _with_forearm(box: Box) -> Box:
     """A hand's box (x, y, w, h) and its own height below it, where its wrist and forearm are."""
     x, y, w, h = box
     return (x, y, w, 2.0 * h)

@@ -150,6 +150,18 @@ def _strongest_channel(dx: np.ndarray, dy: np.ndarray) -> tuple[np.ndarray, np.n
     return out_x.reshape(height, width), out_y.reshape(height, width)
 
 
+# Added before truncating, so that truncation rounds down: cheaper than floor (with the walk
+# below, the contour kernel of 500 particles 0.87 -> 0.79 ms, the same costs).
+_ROUNDING_SHIFT = 1 << 20
+
+
+@numba.njit(cache=True, fastmath=True, nogil=True, inline='always')
+def _pixel(coordinate: float) -> int:
+    """The index of the pixel ``coordinate`` (pixels) falls in, ``floor(coordinate + 0.5)``, for
+    coordinates within ``_ROUNDING_SHIFT`` of the image."""
+    return int(coordinate + (_ROUNDING_SHIFT + 0.5)) - _ROUNDING_SHIFT
+
+
 @numba.njit(cache=True, fastmath=True, nogil=True, inline='always')
 def _placed(
     x: float, y: float, scale: float, c: float, s: float, point: np.ndarray, normal: np.ndarray
@@ -181,11 +193,13 @@ def _contour_costs(
     squared_distances: np.ndarray,
 ) -> None:
     height, width = edges.shape
-    check_orientation = orientation_tolerance < np.pi / 2
     num_points = points.shape[1]
     reach = int(np.ceil(search_halfwidth))
     miss = 2.0 * miss_penalty if use_motion else miss_penalty
+    # Edge labels are orientations in [0, 180): two within the tolerance t of each other either
+    # way round the half-turn are |a - b| <= t or >= 180 - t apart (every pair when t >= 90).
     tolerance_degrees = np.degrees(orientation_tolerance)
+    opposite_degrees = 180.0 - tolerance_degrees
     # A rotation by θ turns every normal by θ: one arctan2 per template point, not per particle,
     # and the sum of two orientations in [0, 180) brought back into it by one comparison per
     # point (a float modulo per point and particle took 13 % of the filter's step).
@@ -204,38 +218,27 @@ def _contour_costs(
         moving_hits = 0
         for j in range(num_points):
             px, py, nx, ny = _placed(x, y, scale, c, s, points[shape, j], normals[shape, j])
-            # Modulo 180 once per point, so that each probe only compares: edge labels are
-            # orientations in [0, 180), and two within the tolerance of each other either way
-            # round the half-turn are |a - b| <= t or >= 180 - t apart.
+            # Modulo 180 once per point, so that each probe only compares.
             normal_degrees = template_degrees[shape, j] + turn_degrees
             if normal_degrees >= 180.0:
                 normal_degrees -= 180.0
             found = -1.0
             zu = 0
             zv = 0
-            # Walk outwards from the point so the first edge met is the closest one.
+            # Walk outwards from the point so the first edge met is the closest one: the point
+            # itself, then both sides at each distance t < δ.
             for t in range(reach):
-                if t >= search_halfwidth:
-                    break
-                for sign in (1.0, -1.0):
-                    u = int(np.floor(px + sign * t * nx + 0.5))
-                    v = int(np.floor(py + sign * t * ny + 0.5))
-                    if (
-                        0 <= u < width
-                        and 0 <= v < height
-                        and edges[v, u] != 0
-                        and (
-                            not check_orientation
-                            or abs(normal_degrees - (edges[v, u] - 1.0)) <= tolerance_degrees
-                            or abs(normal_degrees - (edges[v, u] - 1.0)) >= 180.0 - tolerance_degrees
-                        )
-                    ):
-                        found = t
-                        zu = u
-                        zv = v
-                        break
-                    if t == 0:
-                        break
+                for side in range(2 if t > 0 else 1):
+                    step = t if side == 0 else -t
+                    u = _pixel(px + step * nx)
+                    v = _pixel(py + step * ny)
+                    if 0 <= u < width and 0 <= v < height and edges[v, u] != 0:
+                        gap = abs(normal_degrees - (edges[v, u] - 1.0))
+                        if gap <= tolerance_degrees or gap >= opposite_degrees:
+                            found = t
+                            zu = u
+                            zv = v
+                            break
                 if found >= 0.0:
                     break
             if found >= 0.0:
@@ -353,8 +356,8 @@ def _colour_costs(
             outside_skin = 0.0
             for k in range(1, samples + 1):
                 for sign in (-1.0, 1.0):
-                    u = int(np.floor(px + sign * k * step * nx + 0.5))
-                    v = int(np.floor(py + sign * k * step * ny + 0.5))
+                    u = _pixel(px + sign * k * step * nx)
+                    v = _pixel(py + sign * k * step * ny)
                     label = 1.0 if 0 <= u < width and 0 <= v < height and skin[v, u] != 0 else 0.0
                     if sign < 0.0:
                         inside_not_skin += 1.0 - label

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from human_tracker.vision.measurement import (
+    _pixel,
     _strongest_channel,
     colour_costs,
     contour_costs,
@@ -48,6 +49,13 @@ def test_eq2_searches_both_sides_and_takes_the_closest_edge() -> None:
     particles = np.array([[10.0, 10.0, 1.0, 0.0]])
     costs, _, _, _, _ = contour_costs(edges, particles, POINTS[:1], NORMALS[:1], search_halfwidth=5, miss_penalty=50)
     assert costs[0] == pytest.approx(4)
+
+
+def test_probes_round_to_the_pixel_as_floor_does() -> None:
+    # A probe's pixel is floor(x + 0.5), halves up, inside the image and past its edges (a
+    # particle's probes may leave it); the kernels get it by truncation after a shift.
+    coordinates = np.concatenate([np.arange(-40.0, 40.0, 0.25), np.random.default_rng(0).uniform(-3000, 3000, 2000)])
+    assert [_pixel(c) for c in coordinates] == [int(np.floor(c + 0.5)) for c in coordinates]
 
 
 def test_state_moves_the_points_scale_and_rotation_apply() -> None:

@@ -1,7 +1,8 @@
 """Milliseconds per frame of each stage and of the whole per-frame pipeline, on real frames.
 
-Every figure is the median over the frames (after one warm-up frame, so numba's compilation
-is not counted), measured in this process on this machine.
+Every stage's figure is the median over the frames (after one warm-up frame, so numba's
+compilation is not counted), measured in this process on this machine; a whole pipeline's, see
+:func:`stage_timings`.
 """
 
 from __future__ import annotations
@@ -26,6 +27,8 @@ from human_tracker.vision.tracker import ContourTracker, TrackerParameters
 __all__ = ['PARTICLE_COUNTS', 'stage_timings']
 
 PARTICLE_COUNTS = (250, 500, 1000, 2000)
+# Passes over the frames of each whole pipeline, whose median is reported.
+PIPELINE_PASSES = 5
 
 
 class _RawImage:
@@ -72,10 +75,11 @@ def stage_timings(
     ``hand_pipeline`` (conversion + background + skin + the hand tracker: colour edges and
     the colour term, at the working width) and ``person_pipeline`` (the same cues, a head's
     tracker from the first box and two hands' starting by themselves, the second while the
-    first is followed, :mod:`~human_tracker.vision.people`), all on the same frames. The
-    pipelines' figures are means, not medians: the face detector runs on one frame in
-    ``detect_every``, and a median would leave it out; ``<pipeline>_cpu`` is the CPU time of
-    every thread of the process per frame, the face detector's thread included.
+    first is followed, :mod:`~human_tracker.vision.people`), all on the same frames. A
+    pipeline's figure is a mean over the frames, not a median (the face detector runs on one
+    frame in ``detect_every``, and a median would leave it out): the median of
+    ``PIPELINE_PASSES`` such means; ``<pipeline>_cpu`` is the CPU time of every thread of the
+    process per frame, the face detector's thread included.
     """
     if scale != 1.0:
         frames = [cv2.resize(f, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA) for f in frames]
@@ -100,17 +104,33 @@ def stage_timings(
         tracker.initialise_from_box(boxes[0])
         results[f'particle_filter_{particles}'] = _ms_per_frame(lambda i, t=tracker: t.step(edges[i]), count)
     filter_parameters = TrackerParameters(num_particles=500, min_scale=24.0 * scale)
-    for name, working_width in (('pipeline', TargetParameters().working_width), ('pipeline_full_size', 0)):
-        run = _pipeline(messages, boxes[0], filter_parameters, working_width)
-        results[name], results[f'{name}_cpu'] = _wall_and_cpu_ms(run, count)
-    hand_tracker = TargetTracker(hand(), filter_parameters, parameters_for('hand'))
-    hand_tracker.initialise_from_box(boxes[0])
-    hand_width = hand_tracker.parameters.working_width
-    person = PersonTracker(('head', 'hand', 'hand'), filter_parameters)
-    person.initialise_from_box(boxes[0], 'head')
-    for name, process in (('hand_pipeline', hand_tracker.process), ('person_pipeline', person.process)):
-        run = _skin_pipeline(messages, process, segmenter, hand_width)
-        results[name], results[f'{name}_cpu'] = _wall_and_cpu_ms(run, count)
+    hand_width = parameters_for('hand').working_width
+
+    def hand_process() -> Callable[..., object]:
+        tracker = TargetTracker(hand(), filter_parameters, parameters_for('hand'))
+        tracker.initialise_from_box(boxes[0])
+        return tracker.process
+
+    def person_process() -> Callable[..., object]:
+        person = PersonTracker(('head', 'hand', 'hand'), filter_parameters)
+        person.initialise_from_box(boxes[0], 'head')
+        return person.process
+
+    pipelines: dict[str, Callable[[], Callable[[int], object]]] = {
+        'pipeline': lambda: _pipeline(messages, boxes[0], filter_parameters, TargetParameters().working_width),
+        'pipeline_full_size': lambda: _pipeline(messages, boxes[0], filter_parameters, 0),
+        'hand_pipeline': lambda: _skin_pipeline(messages, hand_process(), segmenter, hand_width),
+        'person_pipeline': lambda: _skin_pipeline(messages, person_process(), segmenter, hand_width),
+    }
+    # Each pipeline afresh on the frames, the pipelines in turn, PIPELINE_PASSES times: the
+    # median pass of each. One pass each moved the person's cost against the head's by a
+    # fifth between runs of the same code (the face detector's thread, the machine's load).
+    passes: dict[str, list[tuple[float, float]]] = {name: [] for name in pipelines}
+    for _ in range(PIPELINE_PASSES):
+        for name, make in pipelines.items():
+            passes[name].append(_wall_and_cpu_ms(make(), count))
+    for name, measured in passes.items():
+        results[name], results[f'{name}_cpu'] = (float(np.median(column)) for column in zip(*measured, strict=True))
     return {k: round(v, 3) for k, v in results.items()}
 
 

@@ -15,7 +15,7 @@ from human_tracker.scenes.generator import SCENES, render_scene
 from human_tracker.vision.background import BackgroundModel
 from human_tracker.vision.faces import Detection
 from human_tracker.vision.skin import SkinSegmenter, default_skin_model
-from human_tracker.vision.target import TargetTracker, parameters_for
+from human_tracker.vision.target import TargetTracker, _moves_within, parameters_for
 from human_tracker.vision.templates import open_hand
 from human_tracker.vision.tracker import TrackerParameters
 
@@ -140,3 +140,30 @@ def test_a_face_found_under_the_hand_on_this_frame_makes_it_lost_at_once(seen: b
         gray = cv2.cvtColor(frame.image, cv2.COLOR_BGR2GRAY)
         statuses.append(tracker.process(frame.image, background.apply(gray), segmenter.segment(frame.image)).status)
     assert statuses[0] == ('LOST' if seen else 'TRACKING')
+
+
+def test_motion_within_reach_of_a_cloud_by_hand() -> None:
+    """A state at (30, 40) of scale 10, contour points up to 1.5 units away and probes 5 px
+    along the normals: pixels 10-50 across are within reach (radius 20), 11-49 with a margin
+    of 4 (radius 19). One moving pixel at column 50, row 40."""
+    motion = np.zeros((80, 100), np.uint8)
+    motion[40, 50] = 255
+    state = np.array([[30.0, 40.0, 10.0, 0.3]])
+    assert _moves_within(motion, state, 1.5, 5.0)
+    assert not _moves_within(motion, state, 1.5, 4.0)
+    assert _moves_within(motion, np.vstack([state, [31.0, 40.0, 8.0, 0.0]]), 1.5, 4.0)  # the cloud's extent
+    assert not _moves_within(motion, np.array([[-40.0, -40.0, 10.0, 0.0]]), 1.5, 5.0)  # outside the frame
+
+
+def test_a_hand_scores_no_cloud_out_of_reach_of_motion() -> None:
+    """With a motion mask, a hand starts only on a hypothesis with ``init_motion_support``: a
+    cloud with no moving pixel within reach of its contours is not scored (it could not start,
+    and would hide a moving region that could); with the motion there, it is."""
+    hand = TargetTracker(open_hand(), TrackerParameters(seed=0), parameters_for('hand'))
+    region = np.zeros((240, 320), np.uint8)
+    cv2.ellipse(region, (160, 120), (22, 32), 0, 0, 360, 255, -1)
+    edges = cv2.Canny(region, 50, 100)
+    still = np.zeros_like(region)
+    assert hand.hypothesis(region, edges, still) is None
+    found = hand.hypothesis(region, edges, region)
+    assert found is not None and found.motion_support > 0

@@ -611,6 +611,10 @@ class TargetTracker:
         fp = self.filter.parameters
         best: tuple[float, Hypothesis] | None = None
         n = self.template.num_points
+        # With a motion mask a start needs init_motion_support: a cloud with no moving pixel
+        # within reach of its contours (their points, and δ along the normals) could not start,
+        # and scored, it could hide a moving region that can.
+        needs_motion = motion is not None and self.parameters.init_motion_support > 0
         for start in self.initial_states(region) if starts is None else starts:
             if not fp.min_scale <= start[2] <= fp.max_scale:
                 continue
@@ -620,6 +624,8 @@ class TargetTracker:
             )
             cloud[0] = start
             np.clip(cloud[:, 2], fp.min_scale, fp.max_scale, out=cloud[:, 2])
+            if needs_motion and not _moves_within(motion, cloud, self._reach, fp.search_halfwidth):
+                continue
             fit = self.filter.fit(edges, cloud, motion, skin)
             # With colour the likelihood itself ranks the states; edges alone would favour
             # small contours that fit any clutter, so they rank by points on (moving) edges.
@@ -1104,6 +1110,12 @@ class TargetTracker:
         could = np.flatnonzero(alike | near)
         return int(could[0]) if could.size else None
 
+    @property
+    def _reach(self) -> float:
+        """The farthest a contour point of any of the template's shapes lies from its origin,
+        template units."""
+        return max(float(np.hypot(*shape.points.T).max()) for shape in self.template.shapes)
+
     def _own_region(self) -> BoxRelation:
         """The region whose colours are the target's after an automatic start: the template's
         reference region (the head's or the hand's box)."""
@@ -1203,6 +1215,16 @@ def _face_on(detections: list[Detection], state: np.ndarray) -> Detection | None
         if distance <= best_distance and 1 / FACE_MATCH_SIZE <= detection.box[2] / size <= FACE_MATCH_SIZE:
             best, best_distance = detection, distance
     return best
+
+
+def _moves_within(motion: np.ndarray, states: np.ndarray, reach: float, margin: float) -> bool:
+    """Whether ``motion`` (non-zero on moving pixels) has a moving pixel within ``reach``
+    template units of a state's position (times its scale) plus ``margin`` pixels, for some
+    of the ``(P, 4)`` ``states``: the pixels their contours' motion support is counted on."""
+    radius = reach * float(states[:, 2].max()) + margin
+    left, top = (max(0, int(np.floor(v - radius))) for v in states[:, :2].min(axis=0))
+    right, bottom = (max(0, int(np.ceil(v + radius)) + 1) for v in states[:, :2].max(axis=0))
+    return bool(np.any(motion[top:bottom, left:right]))
 
 
 def _face_and_neck(face: tuple[float, float, float, float]) -> tuple[float, float, float, float]:

@@ -624,6 +624,7 @@ class TargetTracker:
             )
             cloud[0] = start
             np.clip(cloud[:, 2], fp.min_scale, fp.max_scale, out=cloud[:, 2])
+            # Skipped after its draws, so that the random stream, and every later draw, stays the same.
             if needs_motion and not _moves_within(motion, cloud, self._reach, fp.search_halfwidth):
                 continue
             fit = self.filter.fit(edges, cloud, motion, skin)

@@ -14,6 +14,11 @@ from human_tracker.io.sequences import SequenceError
 
 __all__ = ['main']
 
+_COLOUR_BLUR_HELP = (
+    'skin labels: Gaussian smoothing of the colours before they are read, sigma in pixels '
+    '(default 0: none; 1 helps a compressed camera, docs/evaluation.md)'
+)
+
 
 def _generate(options: argparse.Namespace) -> int:
     from human_tracker.io.bags import write_scene_bag
@@ -49,6 +54,7 @@ def _box(text: str) -> tuple[float, float, float, float]:
 def _track(options: argparse.Namespace) -> int:
     from human_tracker.offline import TrackOptions, track_sequence
     from human_tracker.threads import default_threads, use_threads
+    from human_tracker.vision.skin import SkinParameters
     from human_tracker.vision.tracker import TrackerParameters
 
     use_threads(default_threads() if options.threads is None else options.threads)
@@ -61,6 +67,7 @@ def _track(options: argparse.Namespace) -> int:
         max_people=options.max_people,
         cue=options.cue,
         skin=options.skin,
+        skin_parameters=SkinParameters(colour_blur=options.colour_blur),
         template_file=options.template or '',
         filter_parameters=TrackerParameters(num_particles=options.particles, seed=options.seed),
         working_width=options.working_width,
@@ -169,7 +176,7 @@ def _skin(options: argparse.Namespace) -> int:
 
     source = open_frames(options.input)
     model = SkinModel.load(options.model) if options.model else default_skin_model()
-    segmenter = SkinSegmenter(model, SkinParameters(regions=options.regions))
+    segmenter = SkinSegmenter(model, SkinParameters(colour_blur=options.colour_blur, regions=options.regions))
     options.out.mkdir(parents=True, exist_ok=True)
     written, unreadable, grey = 0, [], 0
     labelled = 0.0
@@ -261,6 +268,13 @@ def main(argv: list[str] | None = None) -> int:
         action=argparse.BooleanOptionalAction,
         help='segment skin and use it in the likelihood (default: on for --target hand)',
     )
+    track.add_argument(
+        '--colour-blur',
+        type=float,
+        default=0.0,
+        metavar='SIGMA',
+        help=_COLOUR_BLUR_HELP,
+    )
     track.add_argument('--template', help='JSON template file replacing the built-in one')
     track.add_argument('--particles', type=int, default=500)
     track.add_argument('--seed', type=int, default=0)
@@ -327,6 +341,13 @@ def main(argv: list[str] | None = None) -> int:
         choices=('cells', 'pixels'),
         default='cells',
         help='phase 1: cells (the paper) or pixels (seed pixels grown by hysteresis: finds small skin regions)',
+    )
+    skin.add_argument(
+        '--colour-blur',
+        type=float,
+        default=0.0,
+        metavar='SIGMA',
+        help=_COLOUR_BLUR_HELP,
     )
     skin.add_argument(
         '--working-width',

@@ -31,7 +31,7 @@ from human_tracker.vision.background import BackgroundModel
 from human_tracker.vision.optical_flow import OpticalFlow
 from human_tracker.vision.people import PersonTracker, TrackedTarget, kinds_of, targets_line
 from human_tracker.vision.resolution import to_working, working_scale
-from human_tracker.vision.skin import SkinSegmenter, default_skin_model, has_colour
+from human_tracker.vision.skin import SkinParameters, SkinSegmenter, default_skin_model, has_colour
 from human_tracker.vision.target import TargetParameters, parameters_for
 from human_tracker.vision.templates import make_template
 from human_tracker.vision.tracker import TrackerParameters, check_box_in_image
@@ -93,6 +93,7 @@ class TrackOptions:
             None: what the bag's ground truth outlines, else the head.
         cue: Motion cue: ``background``, ``flow`` or ``none``.
         skin: Whether to segment skin and use it (§3.2); None: when a hand is followed.
+        skin_parameters: Skin segmentation constants.
         template_file: JSON template replacing the built-in one (empty: built-in; one target).
         filter_parameters: Particle-filter constants.
         target_parameters: Cue combination, initialisation and loss constants; None: the
@@ -110,6 +111,7 @@ class TrackOptions:
     max_people: int = 1
     cue: str = 'background'
     skin: bool | None = None
+    skin_parameters: SkinParameters = field(default_factory=SkinParameters)
     template_file: str = ''
     filter_parameters: TrackerParameters = field(default_factory=TrackerParameters)
     target_parameters: TargetParameters | None = None
@@ -160,7 +162,7 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
         raise ValueError(f'init_kind must be one of {", ".join(kinds)}, got {init_kind!r}')
     background, flow = BackgroundModel(), OpticalFlow()
     use_skin = people.uses_skin if options.skin is None else options.skin
-    segmenter = SkinSegmenter(default_skin_model()) if use_skin else None
+    segmenter = SkinSegmenter(default_skin_model(), options.skin_parameters) if use_skin else None
     grey_frames = 0
     motion_set_aside = 0
     # By target slot (``head``, ``hand``, ``person_2/head``, ...): None or 0 where it did not run.

@@ -172,6 +172,28 @@ def test_segmentation_keeps_flat_skin_and_drops_a_textured_region() -> None:
     assert mask[~truth].mean() < 0.01
 
 
+def test_colour_blur_labels_skin_under_a_noisy_camera(tmp_path) -> None:
+    """Per-pixel colour noise (σ 20 a channel) scatters a skin square's pixels out of its modes,
+    and its cluster's variance out of its class's: no label. Smoothed first (σ 1 pixel), the
+    square is labelled to within its border, and nothing else is; ``skin --colour-blur`` too."""
+    image = np.full((120, 160, 3), (60, 160, 60), dtype=np.uint8)
+    noisy = np.array(SKIN_BGR, dtype=float) + np.random.default_rng(0).normal(0.0, 20.0, (48, 48, 3))
+    image[16:64, 16:64] = np.clip(noisy, 0, 255).astype(np.uint8)
+    model = default_skin_model()
+    assert not (segment_skin(image, model) > 0).any()
+    mask = segment_skin(image, model, SkinParameters(colour_blur=1.0)) > 0
+    assert mask[16:64, 16:64].mean() > 0.9
+    assert np.count_nonzero(mask) < 1.1 * 48 * 48
+    assert SkinParameters(colour_blur=2.0).scaled(0.5).colour_blur == 1.0
+    with pytest.raises(ValueError, match='colour_blur'):
+        SkinParameters(colour_blur=-1.0).validate()
+    (tmp_path / 'frames').mkdir()
+    cv2.imwrite(str(tmp_path / 'frames' / 'noisy.png'), image)
+    for blur, labelled in (('0', False), ('1', True)):
+        assert main(['skin', str(tmp_path / 'frames'), '--out', str(tmp_path / blur), '--colour-blur', blur]) == 0
+        assert cv2.imread(str(tmp_path / blur / 'noisy.png'), cv2.IMREAD_GRAYSCALE).any() == labelled
+
+
 def test_segmentation_recall_on_the_synthetic_hand_scene() -> None:
     frames = list(render_scene(SCENES['hand_wave']))[::30]
     model = default_skin_model()

@@ -27,6 +27,9 @@ from human_tracker.vision.skin import SkinModel, SkinParameters, SkinSegmenter, 
 __all__ = ['SKIN_PARAMETERS', 'SkinNode', 'main']
 
 SKIN_PARAMETERS = (
+    ParameterSpec(
+        'colour_blur', 'Gaussian smoothing of the colours before they are read, sigma in pixels (0: none).', 0.0, 20.0
+    ),
     ParameterSpec('regions', 'Phase 1: cells (the paper) or pixels (seed pixels grown by hysteresis: small regions).'),
     ParameterSpec('seed_scale', 'regions: pixels: seeds lie within this many match distances of a class.', 0.01, 100.0),
     ParameterSpec('grow_scale', 'regions: pixels: regions grow through pixels within this many.', 0.01, 100.0),

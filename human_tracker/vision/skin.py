@@ -311,6 +311,11 @@ class SkinParameters:
     """Constants of the two-phase segmentation.
 
     Attributes:
+        colour_blur: Standard deviation of a Gaussian the image is smoothed with before its
+            colours are read, camera pixels (0: none, the paper). It clears the specks of
+            labels a compressed camera's colours scatter over a room, and a skin region's
+            pixels scattered out of its modes, but also blends a crisp border between two
+            skin-like colours, so it is off by default (docs/evaluation.md).
         regions: How phase 1 finds the regions: ``pixels`` (seeds grown by hysteresis) or
             ``cells`` (the paper's candidate cells).
         seed_scale: With ``pixels``, a pixel within this many ``match_distance`` of a class
@@ -341,6 +346,7 @@ class SkinParameters:
         min_mixed_pixels: Smallest mixed cluster that is split, camera pixels.
     """
 
+    colour_blur: float = 0.0
     regions: str = 'cells'
     seed_scale: float = 1.0
     grow_scale: float = 2.5
@@ -360,6 +366,7 @@ class SkinParameters:
     def validate(self) -> None:
         """Raise ValueError naming the first parameter out of its range."""
         checks = [
+            (self.colour_blur >= 0, f'colour_blur must be >= 0, got {self.colour_blur}'),
             (self.regions in REGION_METHODS, f'regions must be one of {", ".join(REGION_METHODS)}: {self.regions!r}'),
             (
                 0 < self.seed_scale <= self.grow_scale,
@@ -382,11 +389,12 @@ class SkinParameters:
                 raise ValueError(message)
 
     def scaled(self, factor: float) -> SkinParameters:
-        """The same segmentation on images resized by ``factor``: cell side and cluster area scaled."""
+        """The same segmentation on images resized by ``factor``: lengths and cluster areas scaled."""
         if factor == 1.0:
             return self
         return replace(
             self,
+            colour_blur=self.colour_blur * factor,
             cell_size=max(2, round(self.cell_size * factor)),
             min_cluster_pixels=max(1, round(self.min_cluster_pixels * factor**2)),
             min_mixed_pixels=max(1, round(self.min_mixed_pixels * factor**2)),
@@ -737,6 +745,8 @@ def segment_skin(
     if image.ndim != 3 or image.shape[2] != 3:
         raise ValueError(f'skin segmentation needs a (H, W, 3) colour image, got shape {image.shape}')
     image = np.ascontiguousarray(image, dtype=np.uint8)
+    if p.colour_blur > 0:
+        image = cv2.GaussianBlur(image, (0, 0), p.colour_blur)
     height, width = image.shape[:2]
     if p.regions == 'pixels':
         # Every pixel of these regions is already within grow_scale of a class: phase 2's

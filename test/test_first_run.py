@@ -5,6 +5,7 @@ from __future__ import annotations
 import ast
 import hashlib
 import json
+import os
 import re
 import shutil
 import subprocess
@@ -73,6 +74,51 @@ def test_a_stage_says_ready_once_spinning_and_warmed_up() -> None:
         rclpy.try_shutdown()
     assert tracker.ready and said == [True]
     assert extra[0] == 'WAITING'
+
+
+SKIN_KERNELS = (
+    '_nearest_class',
+    '_distance_levels',
+    '_modes',
+    '_region_histograms',
+    '_cluster_statistics',
+    '_two_means',
+)
+
+
+@pytest.mark.parametrize(
+    ('node', 'target', 'kernels'),
+    [
+        ('skin_node.SkinNode', None, {'skin': SKIN_KERNELS}),
+        ('tracker_node.TrackerNode', 'head', {'measurement': ('_contour_costs',), 'proposals': ('_log_mixture',)}),
+        (
+            'tracker_node.TrackerNode',
+            'hand',
+            {'measurement': ('_contour_costs', '_colour_costs', '_strongest_channel'), 'proposals': ('_log_mixture',)},
+        ),
+    ],
+)
+def test_warm_up_compiles_the_kernels_frames_need(node, target, kernels, tmp_path) -> None:
+    """A node says it is ready once warmed up, so the warm-up must run the compiled kernels of
+    its stage, or the first real frames wait for their compilation: a random frame has no skin
+    region (23 frames without skin at the tracker, over DDS) and no detection to draw particles
+    around. In a fresh process with an empty kernel cache, as on a robot's first run."""
+    module, name = node.split('.')
+    overrides = '' if target is None else f"parameter_overrides=[Parameter('target', value='{target}')]"
+    script = (
+        'import importlib, rclpy\n'
+        'from rclpy.parameter import Parameter\n'
+        f'from human_tracker.ros.{module} import {name}\n'
+        'rclpy.init()\n'
+        f'{name}({overrides}).warm_up()\n'
+        f'print([(m, k) for m, ks in {kernels!r}.items() for k in ks'
+        " if not getattr(importlib.import_module(f'human_tracker.vision.{m}'), k).signatures])\n"
+    )
+    environment = {**os.environ, 'NUMBA_CACHE_DIR': str(tmp_path)}
+    done = subprocess.run(
+        [sys.executable, '-c', script], env=environment, capture_output=True, text=True, timeout=300, check=True
+    )
+    assert done.stdout.strip().splitlines()[-1] == '[]', done.stdout + done.stderr
 
 
 def test_a_replay_waits_for_a_tracker_that_is_still_compiling(head_bag, tmp_path) -> None:

@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 import time
 
 import numpy as np
@@ -87,24 +84,3 @@ def _header(index: int) -> Header:
     header = Header(frame_id='camera_optical_frame')
     header.stamp.nanosec = index
     return header
-
-
-def test_warm_up_compiles_every_skin_kernel(tmp_path) -> None:
-    """A node says it is ready once warmed up: the warm-up must run every compiled kernel of
-    both phases (cells and pixels), or the first real frames wait for their compilation
-    (frames without skin at the tracker). In a fresh process with an empty kernel cache, as
-    on a robot's first run."""
-    script = (
-        'import numba, rclpy\n'
-        'from human_tracker.ros.skin_node import SkinNode\n'
-        'from human_tracker.vision import skin\n'
-        'rclpy.init()\n'
-        'SkinNode().warm_up()\n'
-        'print(sorted(n for n, f in vars(skin).items()'
-        ' if isinstance(f, numba.core.registry.CPUDispatcher) and not f.signatures))\n'
-    )
-    environment = {**os.environ, 'NUMBA_CACHE_DIR': str(tmp_path)}
-    done = subprocess.run(
-        [sys.executable, '-c', script], env=environment, capture_output=True, text=True, timeout=300, check=True
-    )
-    assert done.stdout.strip().splitlines()[-1] == '[]', done.stdout + done.stderr

@@ -426,13 +426,16 @@ class TrackerNode(ImageStage):
 
     def warm_up(self) -> None:
         """Run the compiled kernels once, with this node's settings, so the first real frame is not late."""
-        filter_parameters = TrackerParameters(num_particles=2, min_scale=1.0)
+        # Enough particles for a share of them to be drawn around a detection.
+        filter_parameters = TrackerParameters(num_particles=10, min_scale=1.0)
         rng = np.random.default_rng(0)
         blank = np.zeros((32, 32), dtype=np.uint8)
         for tracker in self.people.trackers:
             probe = TargetTracker(tracker.template, filter_parameters, tracker.parameters)
             probe.initialise_from_box((8.0, 8.0, 16.0, 16.0))  # a box: the appearance kernels run too
             probe.process(rng.integers(0, 256, (32, 32, 3), dtype=np.uint8), blank, blank)
+            # A detection (a face, a skin region) on a random frame is rare: its densities too.
+            probe.filter.step(blank, detections=np.array([[16.0, 16.0, 16.0, 0.0]]))
 
     def on_image(self, msg: Any) -> None:
         """Remember the stamp of every frame that reached this node, usable or not, then process it."""

@@ -615,6 +615,8 @@ class TargetTracker:
         # within reach of its contours (their points, and δ along the normals) could not start,
         # and scored, it could hide a moving region that can.
         needs_motion = motion is not None and self.parameters.init_motion_support > 0
+        # The farthest a contour point of any of the template's shapes lies from its origin.
+        reach = max(float(np.hypot(*shape.points.T).max()) for shape in self.template.shapes)
         for start in self.initial_states(region) if starts is None else starts:
             if not fp.min_scale <= start[2] <= fp.max_scale:
                 continue
@@ -625,7 +627,7 @@ class TargetTracker:
             cloud[0] = start
             np.clip(cloud[:, 2], fp.min_scale, fp.max_scale, out=cloud[:, 2])
             # Skipped after its draws, so that the random stream, and every later draw, stays the same.
-            if needs_motion and not _moves_within(motion, cloud, self._reach, fp.search_halfwidth):
+            if needs_motion and not _moves_within(motion, cloud, reach, fp.search_halfwidth):
                 continue
             fit = self.filter.fit(edges, cloud, motion, skin)
             # With colour the likelihood itself ranks the states; edges alone would favour
@@ -1110,12 +1112,6 @@ class TargetTracker:
         near = np.hypot(*(states[:, :2] - own[:2]).T) <= FACE_MATCH_DISTANCE * self.last_face[2]
         could = np.flatnonzero(alike | near)
         return int(could[0]) if could.size else None
-
-    @property
-    def _reach(self) -> float:
-        """The farthest a contour point of any of the template's shapes lies from its origin,
-        template units."""
-        return max(float(np.hypot(*shape.points.T).max()) for shape in self.template.shapes)
 
     def _own_region(self) -> BoxRelation:
         """The region whose colours are the target's after an automatic start: the template's

@@ -6,6 +6,7 @@ import csv
 import json
 import subprocess
 import sys
+from dataclasses import replace
 
 import cv2
 import numpy as np
@@ -17,6 +18,7 @@ from human_tracker.evaluation.metrics import normalised_errors
 from human_tracker.io.bags import read_frames
 from human_tracker.io.sequences import open_sequence, read_groundtruth, write_groundtruth
 from human_tracker.offline import POSE_COLUMNS, TrackOptions, read_covariances, read_poses, track_sequence
+from human_tracker.vision.target import parameters_for
 
 
 def test_track_a_bag_writes_every_output(tmp_path, head_bag) -> None:
@@ -191,6 +193,32 @@ def test_real_sequence_david(tmp_path) -> None:
     assert summary['precision_20px'] >= 0.75
     # The camera moves with the man: the foreground covers most of nearly every frame.
     assert summary['frames_motion_set_aside'] >= 400
+
+
+HAND2 = REAL_DATA / 'hand2'
+
+
+@pytest.mark.skipif(not HAND2.exists(), reason=f'{HAND2} not available')
+def test_a_small_real_hand_in_wide_frames_is_followed_on_a_less_reduced_frame(tmp_path) -> None:
+    """hand2 (320x240) in the middle of 640x480 frames: the hand keeps its 48 camera pixels,
+    which the usual reduction to 320 would make 24. With `min_target_width` the hand's
+    tracker works on a wider frame and follows it about as on the sequence itself."""
+    folder = tmp_path / 'hand2_wide'
+    (folder / 'img').mkdir(parents=True)
+    boxes = read_groundtruth(HAND2 / 'groundtruth.txt')
+    for index, path in enumerate(sorted((HAND2 / 'img').iterdir())):
+        frame = cv2.copyMakeBorder(cv2.imread(str(path)), 120, 120, 160, 160, cv2.BORDER_CONSTANT, value=(120,) * 3)
+        cv2.imwrite(str(folder / 'img' / f'{index:05d}.png'), frame)
+    moved = [None if box is None else (box[0] + 160, box[1] + 120, box[2], box[3]) for box in boxes]
+    write_groundtruth(folder / 'groundtruth.txt', moved)
+    first = read_groundtruth(folder / 'groundtruth.txt')[0]
+    precision = {}
+    for least in (32.0, 0.0):
+        parameters = replace(parameters_for('hand'), min_target_width=least)
+        options = TrackOptions(target='hand', init=first, target_parameters=parameters, video=False, progress=False)
+        precision[least] = track_sequence(folder, tmp_path / f'out_{least}', options)['precision_20px']
+    print(f'hand2 in 640x480 frames: precision at 20 px {precision[32.0]:.3f}, reduced to 320 {precision[0.0]:.3f}')
+    assert precision[32.0] >= 0.5 and precision[0.0] < 0.35
 
 
 def test_compare_a_folder_of_sequences(tmp_path, head_bag, capsys) -> None:

@@ -14,7 +14,7 @@ from human_tracker.vision.resolution import same_frame, to_working, working_scal
 from human_tracker.vision.skin import SkinParameters
 from human_tracker.vision.target import TargetParameters, TargetTracker
 from human_tracker.vision.templates import head_and_shoulders
-from human_tracker.vision.tracker import TrackerParameters
+from human_tracker.vision.tracker import TrackerParameters, state_from_box
 
 
 def test_frames_wider_than_the_working_width_are_reduced_to_it() -> None:
@@ -117,3 +117,34 @@ def test_the_filter_follows_a_change_of_frame_size() -> None:
     assert tracker.scale == 1.0
     # Two prediction steps later the cloud is still where the box was, in camera pixels.
     assert np.linalg.norm(tracker.particles[:, :2].mean(axis=0) - before[:, :2].mean(axis=0)) < 15
+
+
+def test_a_small_target_is_tracked_on_a_less_reduced_frame() -> None:
+    """A head box 30 pixels wide in 640x480 frames would be 15 working pixels across at 320:
+    below `min_target_width` (20), so the track works on a wider frame, with the margin."""
+    frame = np.zeros((480, 640), np.uint8)
+    large = TargetTracker(head_and_shoulders())
+    large.initialise_from_box((280, 151, 80, 100))
+    large.process(frame)
+    assert large.scale == 0.5 and large.working_width(640) == 320
+    small = TargetTracker(head_and_shoulders())
+    small.initialise_from_box((300, 200, 30, 40))
+    s = state_from_box((300, 200, 30, 40), head_and_shoulders())[2]
+    width = small.working_width(640)
+    assert width == int(np.ceil(1.25 * 20.0 / s * 640)) and 320 < width < 640
+    small.process(frame)
+    assert small.scale == width / 640
+    # The cloud stays in camera pixels where the box was.
+    assert np.linalg.norm(small.particles[:, :2].mean(axis=0) - (315, 220)) < 15
+    # Beyond the camera's own pixels the frame is not enlarged; 0 turns the rule off; a
+    # forgotten target's successor starts on the usual frame.
+    tiny = TargetTracker(head_and_shoulders())
+    tiny.initialise_from_box((300, 200, 8, 10))
+    assert tiny.working_width(640) == 0
+    off = TargetTracker(head_and_shoulders(), parameters=TargetParameters(min_target_width=0.0))
+    off.initialise_from_box((300, 200, 30, 40))
+    assert off.working_width(640) == 320
+    small.reset()
+    assert small.working_width(640) == 320
+    with pytest.raises(ValueError, match='min_target_width'):
+        TargetParameters(min_target_width=-1.0).validate()

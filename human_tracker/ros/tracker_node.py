@@ -183,6 +183,12 @@ TARGET_PARAMETERS = (
     ParameterSpec('canny_low', 'Canny low hysteresis threshold.', 0.0, 10000.0),
     ParameterSpec('canny_high', 'Canny high hysteresis threshold.', 0.0, 10000.0),
     ParameterSpec('working_width', WORKING_WIDTH_DESCRIPTION, 0, 100000, runtime=False),
+    ParameterSpec(
+        'min_target_width',
+        'Working pixels a target must span: a smaller one is tracked on a less reduced frame; 0: off.',
+        0.0,
+        10000.0,
+    ),
 )
 _UNKNOWN_VARIANCE = 1e3  # roll and pitch are not observed: a large variance says so
 _MOTION_INPUTS = ('none', 'foreground', 'motion')

@@ -35,6 +35,7 @@ filter (the template's fit tells the hand from the face and skin-coloured things
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
@@ -95,6 +96,9 @@ FACE_MATCH_SIZE = 1.75
 # the raised arm would send the hand to the face).
 FRESH_FACE_FRAMES = 4
 FACE_SIZE_CHANGE = 1.25
+# A finer working frame is taken with this margin over the one a small target needs
+# (``min_target_width``).
+RESOLUTION_MARGIN = 1.25
 # Detector runs near the track in a row that found no face on it before one searches the
 # whole frame.
 SEARCH_AFTER_MISSES = 3
@@ -205,6 +209,11 @@ class TargetParameters:
             edges are found and the contour fitted (:mod:`~human_tracker.vision.resolution`);
             0 works at full size. Every length above and in the filter's parameters stays
             in the camera's pixels.
+        min_target_width: Narrowest a target may be on the working frame, pixels (its scale
+            s): a smaller start box, or a target held smaller for ``lost_frames``, makes the
+            tracker reduce the frame less for that track, down to not at all. The contour
+            cannot follow a target a few pixels across (docs/evaluation.md, *Small targets
+            in wide frames*). 0: ``working_width`` alone decides.
     """
 
     likelihood: str = 'fused'
@@ -242,6 +251,7 @@ class TargetParameters:
     canny_low: float = 40.0
     canny_high: float = 100.0
     working_width: int = 320
+    min_target_width: float = 20.0
 
     def validate(self) -> None:
         """Raise ValueError naming the first parameter out of its range."""
@@ -293,6 +303,8 @@ class TargetParameters:
             raise ValueError(f'need 0 <= canny_low <= canny_high, got {self.canny_low}, {self.canny_high}')
         if self.working_width < 0:
             raise ValueError(f'working_width must be >= 0 (0: full size), got {self.working_width}')
+        if self.min_target_width < 0:
+            raise ValueError(f'min_target_width must be >= 0, got {self.min_target_width}')
 
     def scaled(self, factor: float) -> TargetParameters:
         """The same parameters on images resized by ``factor``: lengths and areas in pixels scaled."""
@@ -347,6 +359,9 @@ def parameters_for(target: str) -> TargetParameters:
             # (0.40 -> 0.36, 5 seeds).
             detect_every=5,
             patient_every=20,
+            # The fingers' outline needs more pixels than a head's: hand2 with the hand 32
+            # working pixels wide 0.64, 24 wide (the frames halved) 0.29.
+            min_target_width=32.0,
         )
     return TargetParameters()
 
@@ -445,6 +460,8 @@ class TargetTracker:
     steady_frames: int = 0
     filter: ContourTracker = field(init=False)
     scale: float = field(default=1.0, init=False)
+    # The least working pixels per camera pixel this track needs (``min_target_width``), or None.
+    finest_scale: float | None = field(default=None, init=False)
     appearance: AppearanceModel | None = field(default=None, init=False)
     box_relation: BoxRelation | None = field(default=None, init=False)
     face_relation: BoxRelation | None = field(default=None, init=False)
@@ -522,6 +539,8 @@ class TargetTracker:
         """
         state = state_from_box(box, self.template)
         self.filter.initialise(state / self._to_camera_factors())
+        self.finest_scale = None
+        self._fit_resolution(float(state[2]), 0.0)  # before the frame's size is known
         self.box_relation = BoxRelation.of(box, state)  # until the contour settles on the next frame
         self.face_relation = None
         self.frames_without_own_face = 0
@@ -555,6 +574,7 @@ class TargetTracker:
         self.previous_frame = None
         self.start_box = None
         self.started_from_box = False
+        self.finest_scale = None
         self.frames = self.searched_on = 0
 
     def initial_region(
@@ -677,7 +697,7 @@ class TargetTracker:
         Returns:
             The outcome, its estimate in the camera's pixels.
         """
-        self._rescale(working_scale(image.shape[1], self.parameters.working_width))
+        self._rescale(working_scale(image.shape[1], self.working_width(image.shape[1])))
         p = self.parameters.scaled(self.scale)
         motion = self._at_working('motion mask', motion, image.shape[:2])
         set_aside = motion is not None and int(np.count_nonzero(motion)) > p.max_motion_fraction * motion.size
@@ -821,32 +841,37 @@ class TargetTracker:
             # lost when skin under the contour says so (skin labels flicker off a hand for a
             # few frames).
             self.status = TRACKING
+        if self.status == TRACKING and self.steady_frames >= p.lost_frames:
+            # Only a size held as long as a loss takes: a contour that shrinks onto clutter
+            # for a frame or two does not change the frame's size.
+            self._fit_resolution(float(estimate.state[2]), self.scale)
         return TargetResult(self.status, estimate, initialised, set_aside, shown)
 
     def working_frame(self, image: np.ndarray, shared: SharedFrames | None = None) -> WorkingFrame:
         """The working image, colour bins and edges of a camera frame, taken from ``shared``
         (keyed by what they depend on) when another tracker computed them, else computed and
         put there."""
-        p = self.parameters.scaled(working_scale(image.shape[1], self.parameters.working_width))
-        key = (p.working_width, p.colour_edges, p.likelihood, p.edge_blur_sigma, p.canny_low, p.canny_high)
+        width = self.working_width(image.shape[1])
+        p = self.parameters.scaled(working_scale(image.shape[1], width))
+        key = (width, p.colour_edges, p.likelihood, p.edge_blur_sigma, p.canny_low, p.canny_high)
         if shared is not None and key in shared:
             return shared[key]
         reduced = gained = None
         if p.likelihood == 'fused' or p.colour_edges or image.ndim == 2:
             # The frame as reduced and brightened serves the colour bins and colour edges of
             # every tracker.
-            pair = None if shared is None else shared.get(('reduced', p.working_width))
+            pair = None if shared is None else shared.get(('reduced', width))
             if pair is None:
-                reduced = to_working(image, p.working_width)
+                reduced = to_working(image, width)
                 pair = (reduced, _exposure_gain(reduced))
                 if shared is not None:
-                    shared['reduced', p.working_width] = pair
+                    shared['reduced', width] = pair
             reduced, gained = pair
         bins = colour_bins(gained) if p.likelihood == 'fused' else None
         if reduced is None or (reduced.ndim == 3 and not p.colour_edges):
             # Grey before the reduction, as the cue stages do: a colour frame and its grey
             # version then give the same edges.
-            reduced = to_working(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), p.working_width)
+            reduced = to_working(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), width)
             gained = _exposure_gain(reduced)
         grey = reduced if reduced.ndim == 2 else cv2.cvtColor(reduced, cv2.COLOR_BGR2GRAY)
         edges = edge_map(gained, blur_sigma=p.edge_blur_sigma, low_threshold=p.canny_low, high_threshold=p.canny_high)
@@ -1158,14 +1183,46 @@ class TargetTracker:
         """Per-component factors taking a state [x, y, s, θ] from working to camera pixels."""
         return np.array([1.0 / self.scale, 1.0 / self.scale, 1.0 / self.scale, 1.0])
 
+    def working_width(self, frame_width: int) -> int:
+        """The width frames ``frame_width`` pixels wide are reduced to for this track (0: none):
+        ``working_width``, or wider for a target narrower than ``min_target_width`` there."""
+        width = self.parameters.working_width
+        if width <= 0 or self.finest_scale is None or working_scale(frame_width, width) >= self.finest_scale:
+            return width
+        needed = math.ceil(self.finest_scale * frame_width)
+        return 0 if needed >= frame_width else needed
+
+    def _fit_resolution(self, target_width: float, scale: float) -> None:
+        """Keep a target ``target_width`` camera pixels wide (its scale s) at least
+        ``min_target_width`` working pixels across from the next frame on, by a working frame
+        finer than ``scale`` (working pixels per camera pixel), with a quarter more than
+        needed, so that a target a little smaller next frame does not change the frame's size
+        again. The frame stays that fine until the target is forgotten (:meth:`reset`): a
+        contour's scale swings, and going back and forth lost the camera's motion, the face
+        detector's run and the appearance's colours at each change."""
+        least = self.parameters.min_target_width
+        if least > 0 and target_width > 0 and least / target_width > scale:
+            self.finest_scale = RESOLUTION_MARGIN * least / target_width
+
     def _rescale(self, scale: float) -> None:
-        """Work at ``scale`` working pixels per camera pixel (first frame, or a new frame size)."""
+        """Work at ``scale`` working pixels per camera pixel (first frame, a new frame size, or a
+        box that needs a finer frame)."""
         if scale == self.scale:
             return
+        ratio = scale / self.scale
         if self.filter.particles is not None and self.filter.previous is not None:
-            factors = self._to_camera_factors() * np.array([scale, scale, scale, 1.0])
+            factors = np.array([ratio, ratio, ratio, 1.0])
             self.filter.particles = self.filter.particles * factors
             self.filter.previous = self.filter.previous * factors
+        if self.previous_frame is not None:
+            # What earlier frames left in working pixels; no camera motion or face localisation
+            # across frames of two sizes.
+            if self.last_face is not None:
+                self.last_face = tuple(v * ratio for v in self.last_face)  # type: ignore[assignment]
+            if self.reported_state is not None:
+                self.reported_state = self.reported_state * np.array([ratio, ratio, ratio, 1.0])
+            self.previous_frame = self.detected_on = None
+            self._pending = None
         self.scale = scale
         self.filter.parameters = self.filter_parameters.scaled(scale)
 
@@ -1173,7 +1230,7 @@ class TargetTracker:
         """A cue mask of the frame ``shape``, at any resolution, brought to the working one."""
         if mask is None:
             return None
-        working = working_shape(shape, self.parameters.working_width)
+        working = working_shape(shape, self.working_width(shape[1]))
         if mask.shape == working:
             return mask
         if not same_frame(mask.shape, shape):

@@ -15,6 +15,7 @@ from conftest import REAL_DATA
 
 from human_tracker.cli import main
 from human_tracker.evaluation.metrics import normalised_errors
+from human_tracker.evaluation.wide_frames import widen
 from human_tracker.io.bags import read_frames
 from human_tracker.io.sequences import open_sequence, read_groundtruth, write_groundtruth
 from human_tracker.offline import POSE_COLUMNS, TrackOptions, read_covariances, read_poses, track_sequence
@@ -203,14 +204,7 @@ def test_a_small_real_hand_in_wide_frames_is_followed_on_a_less_reduced_frame(tm
     """hand2 (320x240) in the middle of 640x480 frames: the hand keeps its 48 camera pixels,
     which the usual reduction to 320 would make 24. With `min_target_width` the hand's
     tracker works on a wider frame and follows it about as on the sequence itself."""
-    folder = tmp_path / 'hand2_wide'
-    (folder / 'img').mkdir(parents=True)
-    boxes = read_groundtruth(HAND2 / 'groundtruth.txt')
-    for index, path in enumerate(sorted((HAND2 / 'img').iterdir())):
-        frame = cv2.copyMakeBorder(cv2.imread(str(path)), 120, 120, 160, 160, cv2.BORDER_CONSTANT, value=(120,) * 3)
-        cv2.imwrite(str(folder / 'img' / f'{index:05d}.png'), frame)
-    moved = [None if box is None else (box[0] + 160, box[1] + 120, box[2], box[3]) for box in boxes]
-    write_groundtruth(folder / 'groundtruth.txt', moved)
+    folder = widen(HAND2, tmp_path / 'hand2_wide')
     first = read_groundtruth(folder / 'groundtruth.txt')[0]
     precision = {}
     for least in (32.0, 0.0):

@@ -391,6 +391,7 @@ def test_params_file_loads_and_gains_change_at_run_time(tmp_path) -> None:
         assert client.wait_for_services(timeout_sec=60.0), tracker.output()
         assert _get(client, node, 'likelihood_gain') == pytest.approx(0.013)
         assert _get(client, node, 'motion_mode') == 'weighted'
+        assert _get(client, node, 'min_target_width') == 20.0  # the head's; commented out in the file
         refused = _set(client, node, 'likelihood_gain', -1.0)
         assert not refused.successful and refused.reason
         refused = _set(client, node, 'process_noise', [1.0, 2.0])

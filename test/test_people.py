@@ -91,12 +91,12 @@ def test_a_working_frame_computed_beforehand_gives_the_same_track() -> None:
         motion = cues.apply(to_working(to_mono8(image), 320))
         labels = skin.segment(to_working(image, 320), 0.5)
         shared = ahead.working_frame(image)
-        widths = {slot.tracker.working_width(image.shape[1]) for slot in ahead.slots[:2]}
-        assert _working_frames(shared) == 1 and ('reduced', ahead.slots[0].tracker.working_width(640)) in shared
+        head_width, hand_width = (slot.tracker.working_width(image.shape[1]) for slot in ahead.slots[:2])
+        assert _working_frames(shared) == 1 and ('reduced', head_width) in shared
         got = ahead.process(image, motion, labels, shared)
         # The hand's own (colour edges) was added beside the head's, from the same reduced
         # frame while both work at one width (the head found by itself on a small thing: two).
-        assert _working_frames(shared) == 2 and len(shared) == 2 + len(widths)
+        assert _working_frames(shared) == 2 and len(shared) == 2 + len({head_width, hand_width})
         expected = after.process(image, motion, labels)
         assert [(o.id, o.kind, o.result.status) for o in got] == [(o.id, o.kind, o.result.status) for o in expected]
         for a, b in zip(got, expected, strict=True):

@@ -1206,7 +1206,7 @@ class TargetTracker:
 
     def _rescale(self, scale: float) -> None:
         """Work at ``scale`` working pixels per camera pixel (first frame, a new frame size, or a
-        box that needs a finer frame)."""
+        target that needs a finer frame)."""
         if scale == self.scale:
             return
         ratio = scale / self.scale

@@ -5,8 +5,9 @@
 - accuracy: ours against CamShift, MIL, KCF and CSRT on the bundled bags and the real
   sequences in ``../shared/data/real`` (when present), same frames, same first box; and
   the skin labels' precision and recall on the hand bags and hand-labelled real frames;
-- small: ours with ``min_target_width`` and without it on real sequences set in frames twice
-  as wide and high (:mod:`~human_tracker.evaluation.wide_frames`);
+- conditions: ours with ``min_target_width`` and without it on real sequences set in frames
+  twice as wide and high, and with the skin stage's exposure normalisation and without it on
+  ``hand2`` dimmed (:mod:`~human_tracker.evaluation.conditions`);
 - latency: end-to-end over DDS, described below.
 
 Results go to ``out/bench/results.json`` and ``out/bench/results.md``.
@@ -224,16 +225,6 @@ def _speed(bag: Path, contrib_python: Path | None) -> dict[str, object]:
     }
 
 
-SMALL_COLUMNS = [
-    'sequence',
-    'min_target_width',
-    'start',
-    'runs',
-    'precision_20px_mean',
-    'precision_20px_min',
-    'precision_20px_max',
-    'confident_wrong_max',
-]
 HEAD_SEQUENCES = ('david', 'david_colour', 'trellis', 'sunshade', 'seated_agbani', 'interview_alberto')
 
 
@@ -446,7 +437,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('--frames', type=int, default=240, help='frames per latency run (the bag is looped)')
     parser.add_argument('--contrib-python', type=Path, help='python of the virtualenv with opencv-contrib (KCF, CSRT)')
     parser.add_argument('--real-data', type=Path, default=Path('../shared/data/real'))
-    parser.add_argument('--sections', default='speed,accuracy,small,latency,threads')
+    parser.add_argument('--sections', default='speed,accuracy,conditions,latency,threads')
     parser.add_argument('--report', type=Path, help='also write the markdown report here (docs/benchmark.md)')
     parser.add_argument(
         '--readme', type=Path, help="write the summary of real people and speed into this README's bench block"
@@ -503,12 +494,21 @@ def main(argv: list[str] | None = None) -> int:
         columns = ['sequence', 'method', 'truth', 'precision', 'recall', 'f1', 'mean_photo_f1']
         columns += ['labelled_fraction', 'regions', 'regions_found']
         report += ['## skin labels (§3.2) against true skin\n', _table(results['skin'], columns)]
-    if 'small' in sections:
-        from human_tracker.evaluation.wide_frames import small_target_rows
+    conditions: dict[str, str] = {}  # the tables, by their block in evaluation.md
+    if 'conditions' in sections:
+        from human_tracker.evaluation.conditions import DIM_BRIGHTNESS, dim_light_rows, small_target_rows
 
-        results['small'] = small_target_rows(options.real_data, options.out / 'wide_frames')
-        small_table = _table(results['small'], SMALL_COLUMNS)
-        report += ['## small targets in wide frames (real sequences in frames twice as wide and high)\n', small_table]
+        titles = {
+            'small': 'small targets in wide frames (real sequences in frames twice as wide and high)',
+            'dim': f'dim light (the real hand at {DIM_BRIGHTNESS:g} of its brightness)',
+        }
+        results['small'] = small_target_rows(options.real_data, options.out / 'conditions')
+        results['dim'] = dim_light_rows(options.real_data, options.out / 'conditions')
+        for name, title in titles.items():
+            if results[name]:
+                # Each row's columns in order: the sequence, the setting, the start, the figures.
+                conditions[name] = _table(results[name], list(results[name][0]))  # type: ignore[index]
+                report += [f'## {title}\n', conditions[name]]
     if 'latency' in sections:
         env = use_ros_environment(int(os.environ.get('ROS_DOMAIN_ID', 150 + os.getpid() % 50)))
         bag_frames = list(read_frames(options.bag))
@@ -565,8 +565,9 @@ def main(argv: list[str] | None = None) -> int:
         if options.evaluation:
             write_between_markers(options.evaluation, 'real', real_people_table(results['accuracy']))  # type: ignore[arg-type]
             write_between_markers(options.evaluation, 'covariance', covariance_table(results['accuracy']))  # type: ignore[arg-type]
-    if 'small' in sections and options.evaluation and results['small']:
-        write_between_markers(options.evaluation, 'small', small_table)
+    if options.evaluation:
+        for name, table in conditions.items():
+            write_between_markers(options.evaluation, name, table)
     print('\n'.join(report))
     return 0
 

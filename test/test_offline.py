@@ -14,11 +14,12 @@ import pytest
 from conftest import REAL_DATA
 
 from human_tracker.cli import main
+from human_tracker.evaluation.conditions import dim, widen
 from human_tracker.evaluation.metrics import normalised_errors
-from human_tracker.evaluation.wide_frames import widen
 from human_tracker.io.bags import read_frames
 from human_tracker.io.sequences import open_sequence, read_groundtruth, write_groundtruth
 from human_tracker.offline import POSE_COLUMNS, TrackOptions, read_covariances, read_poses, track_sequence
+from human_tracker.vision.skin import SkinParameters
 from human_tracker.vision.target import parameters_for
 
 
@@ -213,6 +214,22 @@ def test_a_small_real_hand_in_wide_frames_is_followed_on_a_less_reduced_frame(tm
         precision[least] = track_sequence(folder, tmp_path / f'out_{least}', options)['precision_20px']
     print(f'hand2 in 640x480 frames: precision at 20 px {precision[32.0]:.3f}, reduced to 320 {precision[0.0]:.3f}')
     assert precision[32.0] >= 0.5 and precision[0.0] < 0.35
+
+
+@pytest.mark.skipif(not HAND2.exists(), reason=f'{HAND2} not available')
+def test_the_real_hand_in_dim_light_keeps_its_skin_labels(tmp_path) -> None:
+    """hand2 at 0.4 of its brightness (a dim room): skin's (I2, I3) shrink with the light and
+    fall short of every skin class, so without the exposure normalisation no skin is labelled
+    and the hand is lost at once; with it the hand is followed about as on hand2 itself."""
+    folder = dim(HAND2, tmp_path / 'hand2_dim')
+    first = read_groundtruth(folder / 'groundtruth.txt')[0]
+    precision = {}
+    for gain in (SkinParameters().max_exposure_gain, 1.0):
+        skin = SkinParameters(max_exposure_gain=gain)
+        options = TrackOptions(target='hand', init=first, skin_parameters=skin, video=False, progress=False)
+        precision[gain] = track_sequence(folder, tmp_path / f'out_{gain}', options)['precision_20px']
+    print(f'hand2 dimmed: precision at 20 px {precision[4.0]:.3f}, without normalised exposure {precision[1.0]:.3f}')
+    assert precision[4.0] >= 0.5 and precision[1.0] < 0.1
 
 
 def test_compare_a_folder_of_sequences(tmp_path, head_bag, capsys) -> None:

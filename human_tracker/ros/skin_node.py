@@ -36,6 +36,9 @@ __all__ = ['SKIN_PARAMETERS', 'SkinNode', 'main']
 
 SKIN_PARAMETERS = (
     ParameterSpec(
+        'max_exposure_gain', 'Largest gain brightening a dark frame before its colours are read (1: none).', 1.0, 16.0
+    ),
+    ParameterSpec(
         'colour_blur', 'Gaussian smoothing of the colours before they are read, sigma in pixels (0: none).', 0.0, 20.0
     ),
     ParameterSpec('regions', 'Phase 1: cells (the paper) or pixels (seed pixels grown by hysteresis: small regions).'),

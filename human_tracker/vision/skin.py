@@ -43,6 +43,8 @@ import numpy as np
 from scipy.cluster.vq import kmeans2
 from scipy.ndimage import gaussian_filter1d
 
+from human_tracker.vision.exposure import MAX_EXPOSURE_GAIN, normalise_exposure
+
 __all__ = [
     'MIXED_SKIN',
     'REGION_METHODS',
@@ -311,6 +313,12 @@ class SkinParameters:
     """Constants of the two-phase segmentation.
 
     Attributes:
+        max_exposure_gain: A dark frame is brightened (its 99th percentile brought to 255) by
+            at most this factor before its colours are read
+            (:func:`~human_tracker.vision.exposure.normalise_exposure`; 1: never, the paper).
+            Skin's (I2, I3) scale with the light: ``hand2`` with its frames at 0.4 of their
+            brightness (a dim room) keeps no skin label without it, and its hand is lost
+            within a few frames.
         colour_blur: Standard deviation of a Gaussian the image is smoothed with before its
             colours are read, camera pixels (0: none, the paper). It clears the specks of
             labels a compressed camera's colours scatter over a room, and a skin region's
@@ -346,6 +354,7 @@ class SkinParameters:
         min_mixed_pixels: Smallest mixed cluster that is split, camera pixels.
     """
 
+    max_exposure_gain: float = MAX_EXPOSURE_GAIN
     colour_blur: float = 0.0
     regions: str = 'cells'
     seed_scale: float = 1.0
@@ -366,6 +375,7 @@ class SkinParameters:
     def validate(self) -> None:
         """Raise ValueError naming the first parameter out of its range."""
         checks = [
+            (self.max_exposure_gain >= 1, f'max_exposure_gain must be >= 1, got {self.max_exposure_gain}'),
             (self.colour_blur >= 0, f'colour_blur must be >= 0, got {self.colour_blur}'),
             (self.regions in REGION_METHODS, f'regions must be one of {", ".join(REGION_METHODS)}: {self.regions!r}'),
             (
@@ -744,7 +754,7 @@ def segment_skin(
     p = parameters or SkinParameters()
     if image.ndim != 3 or image.shape[2] != 3:
         raise ValueError(f'skin segmentation needs a (H, W, 3) colour image, got shape {image.shape}')
-    image = np.ascontiguousarray(image, dtype=np.uint8)
+    image = normalise_exposure(np.ascontiguousarray(image, dtype=np.uint8), p.max_exposure_gain)
     if p.colour_blur > 0:
         image = cv2.GaussianBlur(image, (0, 0), p.colour_blur)
     height, width = image.shape[:2]
@@ -834,6 +844,8 @@ class SkinSegmenter:
         selected = (np.asarray(region) > 0) & (np.asarray(skin) > 0)
         if self.adaptation_rate <= 0 or np.count_nonzero(selected) < self.parameters.min_cluster_pixels:
             return False
+        # The colours as the segmentation reads them.
+        image = normalise_exposure(np.asarray(image, dtype=np.uint8), self.parameters.max_exposure_gain)
         chroma = ohta(image[selected])[:, 1:].astype(np.float64)
         mean = chroma.mean(axis=0)
         k = int(self.prior.nearest(mean))

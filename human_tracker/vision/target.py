@@ -48,6 +48,7 @@ import numpy as np
 from human_tracker.vision.appearance import AppearanceModel, colour_bins
 from human_tracker.vision.boxes import Box, BoxRelation, box_centre, centre_within
 from human_tracker.vision.camera_motion import estimate_camera_motion, move_states
+from human_tracker.vision.exposure import normalise_exposure
 from human_tracker.vision.faces import FACE_ON_HEAD, Detection, FaceDetector, face_detector_available
 from human_tracker.vision.initialisation import blobs, moments_state, state_from_scan, upper_end_state
 from human_tracker.vision.measurement import edge_map
@@ -390,7 +391,7 @@ class WorkingFrame(NamedTuple):
 
     Attributes:
         image: ``(H, W)`` grey or ``(H, W, 3)`` BGR (``colour_edges``) working image, brightened
-            (``_exposure_gain``): what the edges and the face detector see.
+            (:func:`~human_tracker.vision.exposure.normalise_exposure`): what the edges and the face detector see.
         grey: The working grey image before brightening (the camera-motion estimate's).
         edges: Its :func:`~human_tracker.vision.measurement.edge_map`.
         bins: Its colour bins (:func:`~human_tracker.vision.appearance.colour_bins`) with the
@@ -405,7 +406,7 @@ class WorkingFrame(NamedTuple):
 
 # What the trackers of one frame compute once for all of them: working frames by their
 # settings, and by ``('reduced', width)`` the frame reduced to a working width, as it is and
-# brightened (``_exposure_gain``).
+# brightened (``normalise_exposure``).
 SharedFrames = dict[tuple, 'WorkingFrame | tuple[np.ndarray, np.ndarray]']
 
 
@@ -863,7 +864,7 @@ class TargetTracker:
             pair = None if shared is None else shared.get(('reduced', width))
             if pair is None:
                 reduced = to_working(image, width)
-                pair = (reduced, _exposure_gain(reduced))
+                pair = (reduced, normalise_exposure(reduced))
                 if shared is not None:
                     shared['reduced', width] = pair
             reduced, gained = pair
@@ -872,7 +873,7 @@ class TargetTracker:
             # Grey before the reduction, as the cue stages do: a colour frame and its grey
             # version then give the same edges.
             reduced = to_working(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), width)
-            gained = _exposure_gain(reduced)
+            gained = normalise_exposure(reduced)
         grey = reduced if reduced.ndim == 2 else cv2.cvtColor(reduced, cv2.COLOR_BGR2GRAY)
         edges = edge_map(gained, blur_sigma=p.edge_blur_sigma, low_threshold=p.canny_low, high_threshold=p.canny_high)
         frame = WorkingFrame(gained, grey, edges, bins)
@@ -1290,28 +1291,3 @@ def _face_and_neck(face: tuple[float, float, float, float]) -> tuple[float, floa
     0.42 either way, but a restart can now fall on skin-coloured wood: docs/evaluation.md)."""
     x, y, w, h = face
     return (x - 0.2 * w, y - 0.3 * h, 1.4 * w, 2.8 * h)
-
-
-def _exposure_gain(image: np.ndarray, max_gain: float = 4.0) -> np.ndarray:
-    """``image`` brightened so that its 99th percentile reaches 255, by at most ``max_gain``.
-
-    Canny's thresholds are absolute: in a dark room (the start of ``david_colour``) a face's
-    outline has no gradient above them, and the colours all fall into the darkest grey bins.
-    A frame already within 1.25 of full range is returned as it is.
-    """
-    bright = _percentile(image[::4, ::4], 99.0)
-    gain = min(max_gain, 255.0 / max(bright, 1.0))
-    if gain < 1.25:
-        return image
-    return cv2.convertScaleAbs(image, alpha=gain)
-
-
-def _percentile(image: np.ndarray, q: float) -> float:
-    """``np.percentile(image, q)`` (linear interpolation) of a ``uint8`` image from its
-    histogram: the same value, without sorting (a quarter of a millisecond per frame)."""
-    counts = np.cumsum(np.bincount(image.ravel(), minlength=256))
-    position = (counts[-1] - 1) * q / 100.0
-    below = int(np.floor(position))
-    # The k-th smallest value is the first level whose cumulative count exceeds k.
-    low, high = np.searchsorted(counts, [below, min(below + 1, counts[-1] - 1)], side='right')
-    return float(low + (position - below) * (high - low))

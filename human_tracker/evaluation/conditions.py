@@ -1,0 +1,149 @@
+"""Real sequences under camera conditions they were not recorded in, ours with a setting and without.
+
+- **Small targets in wide frames** (:func:`widen`). A robot's 640x480 camera sees a person a
+  few metres away as small as our real sequences' 320x240 frames show them near. Set in a
+  frame twice as wide and high (a grey border round it), a sequence keeps its target's camera
+  pixels while the default reduction to the working width makes it twice as small: the case
+  ``min_target_width`` is for (:meth:`~human_tracker.vision.target.TargetTracker.working_width`).
+  Ours runs with the rule and without it (``min_target_width`` 0).
+- **Dim light** (:func:`dim`). A camera at the end of its exposure range (a dim room) gives
+  frames far darker than our sequences': ``hand2`` at 0.4 of its brightness. Ours runs with
+  the skin stage's exposure normalisation and without it (``max_exposure_gain`` 1).
+
+Each from the first box and without one, over a few seeds.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from human_tracker.io.sequences import read_groundtruth, write_groundtruth
+from human_tracker.offline import TrackOptions, track_sequence
+from human_tracker.vision.skin import SkinParameters
+from human_tracker.vision.target import TargetParameters, parameters_for
+from human_tracker.vision.tracker import TrackerParameters
+
+__all__ = ['DIM_BRIGHTNESS', 'SEQUENCES', 'dim', 'dim_light_rows', 'small_target_rows', 'widen']
+
+# The sequences set in wide frames and their targets: the real hand, the smallest head, and a
+# head already as small as the working frame allows once reduced (trellis, 34 working pixels),
+# as a control.
+SEQUENCES = {'hand2': 'hand', 'sunshade': 'head', 'trellis': 'head'}
+BORDER_GREY = 120
+# The brightness of the dimmed frames, a fraction of the sequence's own.
+DIM_BRIGHTNESS = 0.4
+
+
+def widen(sequence: Path, out: Path) -> Path:
+    """``sequence`` (a folder with ``img/`` and ``groundtruth.txt``) in the middle of frames twice
+    as wide and high, written to ``out`` (PNG frames, boxes moved with them); returns ``out``."""
+    dx = dy = 0
+
+    def wider(image: np.ndarray) -> np.ndarray:
+        nonlocal dx, dy
+        dx, dy = image.shape[1] // 2, image.shape[0] // 2
+        return cv2.copyMakeBorder(image, dy, dy, dx, dx, cv2.BORDER_CONSTANT, value=(BORDER_GREY,) * 3)
+
+    _rewrite_frames(sequence, out, wider)
+    boxes = read_groundtruth(sequence / 'groundtruth.txt')
+    write_groundtruth(
+        out / 'groundtruth.txt', [None if b is None else (b[0] + dx, b[1] + dy, b[2], b[3]) for b in boxes]
+    )
+    return out
+
+
+def dim(sequence: Path, out: Path, brightness: float = DIM_BRIGHTNESS) -> Path:
+    """``sequence``'s frames at ``brightness`` times their own (rounded, as a camera's darker
+    exposure quantises them), written to ``out`` with its boxes; returns ``out``."""
+    _rewrite_frames(sequence, out, lambda image: cv2.convertScaleAbs(image, alpha=brightness))
+    write_groundtruth(out / 'groundtruth.txt', read_groundtruth(sequence / 'groundtruth.txt'))
+    return out
+
+
+def small_target_rows(real_data: Path, out: Path, seeds: tuple[int, ...] = (0, 1, 2)) -> list[dict[str, object]]:
+    """Precision at 20 px (mean, min, max over ``seeds``) and the worst confident-wrong share of
+    ours on each of :data:`SEQUENCES` widened, with ``min_target_width`` and without, from the
+    first box and without one; sequences absent from ``real_data`` are skipped."""
+    rows = []
+    for name, target in SEQUENCES.items():
+        if not (real_data / name / 'img').is_dir():
+            continue
+        folder = widen(real_data / name, out / f'{name}_wide')
+        parameters = parameters_for(target)
+        values = {
+            parameters.min_target_width: (parameters, SkinParameters()),
+            0.0: (replace(parameters, min_target_width=0.0), SkinParameters()),
+        }
+        rows += _rows(folder, f'{name} widened', target, 'min_target_width', values, seeds, out / f'{name}_wide_runs')
+    return rows
+
+
+def dim_light_rows(real_data: Path, out: Path, seeds: tuple[int, ...] = (0, 1, 2)) -> list[dict[str, object]]:
+    """As :func:`small_target_rows`, for ``hand2``'s hand dimmed (:func:`dim`), with the skin
+    stage's exposure normalisation and without; none when ``hand2`` is absent."""
+    if not (real_data / 'hand2' / 'img').is_dir():
+        return []
+    folder = dim(real_data / 'hand2', out / 'hand2_dim')
+    parameters, skin = parameters_for('hand'), SkinParameters()
+    values = {skin.max_exposure_gain: (parameters, skin), 1.0: (parameters, replace(skin, max_exposure_gain=1.0))}
+    name = f'hand2 at {DIM_BRIGHTNESS:g} brightness'
+    return _rows(folder, name, 'hand', 'max_exposure_gain', values, seeds, out / 'hand2_dim_runs')
+
+
+def _rows(
+    folder: Path,
+    name: str,
+    target: str,
+    setting: str,
+    values: dict[float, tuple[TargetParameters, SkinParameters]],
+    seeds: tuple[int, ...],
+    out: Path,
+) -> list[dict[str, object]]:
+    """One row per value of ``setting`` (``values``: the parameters each gives) and start (the
+    first box, none): precision at 20 px over ``seeds`` and the worst confident-wrong share."""
+    first = read_groundtruth(folder / 'groundtruth.txt')[0]
+    rows = []
+    for value, (parameters, skin) in values.items():
+        for init in (first, None):
+            precision, wrong = [], []
+            for seed in seeds:
+                options = TrackOptions(
+                    target=target,
+                    init=init,
+                    target_parameters=parameters,
+                    skin_parameters=skin,
+                    filter_parameters=TrackerParameters(seed=seed),
+                    video=False,
+                    progress=False,
+                )
+                summary = track_sequence(folder, out / f'{value}_{init is not None}_{seed}', options)
+                precision.append(float(summary['precision_20px']))
+                wrong.append(float(summary['confident_wrong']))
+            rows.append(
+                {
+                    'sequence': name,
+                    setting: value,
+                    'start': 'first box' if init is not None else 'none',
+                    'runs': len(seeds),
+                    'precision_20px_mean': round(float(np.mean(precision)), 3),
+                    'precision_20px_min': round(min(precision), 3),
+                    'precision_20px_max': round(max(precision), 3),
+                    'confident_wrong_max': round(max(wrong), 3),
+                }
+            )
+    return rows
+
+
+def _rewrite_frames(sequence: Path, out: Path, change: Callable[[np.ndarray], np.ndarray]) -> None:
+    """Each frame of ``sequence/img`` passed through ``change`` (an image to an image), written
+    to ``out/img`` as PNG."""
+    (out / 'img').mkdir(parents=True, exist_ok=True)
+    paths = sorted(p for p in (sequence / 'img').iterdir() if p.is_file())
+    for index, path in enumerate(paths):
+        image = cv2.imread(str(path), cv2.IMREAD_COLOR)
+        cv2.imwrite(str(out / 'img' / f'{index:05d}.png'), change(image))

@@ -200,18 +200,25 @@ def test_real_sequence_david(tmp_path) -> None:
 HAND2 = REAL_DATA / 'hand2'
 
 
+def _hand_from_first_box(folder, out, **options) -> float:
+    """Precision at 20 px of the hand tracked on ``folder`` from its first ground-truth box."""
+    first = read_groundtruth(folder / 'groundtruth.txt')[0]
+    run = TrackOptions(target='hand', init=first, video=False, progress=False, **options)
+    return track_sequence(folder, out, run)['precision_20px']
+
+
 @pytest.mark.skipif(not HAND2.exists(), reason=f'{HAND2} not available')
 def test_a_small_real_hand_in_wide_frames_is_followed_on_a_less_reduced_frame(tmp_path) -> None:
     """hand2 (320x240) in the middle of 640x480 frames: the hand keeps its 48 camera pixels,
     which the usual reduction to 320 would make 24. With `min_target_width` the hand's
     tracker works on a wider frame and follows it about as on the sequence itself."""
     folder = widen(HAND2, tmp_path / 'hand2_wide')
-    first = read_groundtruth(folder / 'groundtruth.txt')[0]
-    precision = {}
-    for least in (32.0, 0.0):
-        parameters = replace(parameters_for('hand'), min_target_width=least)
-        options = TrackOptions(target='hand', init=first, target_parameters=parameters, video=False, progress=False)
-        precision[least] = track_sequence(folder, tmp_path / f'out_{least}', options)['precision_20px']
+    precision = {
+        least: _hand_from_first_box(
+            folder, tmp_path / f'out_{least}', target_parameters=replace(parameters_for('hand'), min_target_width=least)
+        )
+        for least in (32.0, 0.0)
+    }
     print(f'hand2 in 640x480 frames: precision at 20 px {precision[32.0]:.3f}, reduced to 320 {precision[0.0]:.3f}')
     assert precision[32.0] >= 0.5 and precision[0.0] < 0.35
 
@@ -222,12 +229,12 @@ def test_the_real_hand_in_dim_light_keeps_its_skin_labels(tmp_path) -> None:
     fall short of every skin class, so without the exposure normalisation no skin is labelled
     and the hand is lost at once; with it the hand is followed about as on hand2 itself."""
     folder = dim(HAND2, tmp_path / 'hand2_dim')
-    first = read_groundtruth(folder / 'groundtruth.txt')[0]
-    precision = {}
-    for gain in (SkinParameters().max_exposure_gain, 1.0):
-        skin = SkinParameters(max_exposure_gain=gain)
-        options = TrackOptions(target='hand', init=first, skin_parameters=skin, video=False, progress=False)
-        precision[gain] = track_sequence(folder, tmp_path / f'out_{gain}', options)['precision_20px']
+    precision = {
+        gain: _hand_from_first_box(
+            folder, tmp_path / f'out_{gain}', skin_parameters=SkinParameters(max_exposure_gain=gain)
+        )
+        for gain in (SkinParameters().max_exposure_gain, 1.0)
+    }
     print(f'hand2 dimmed: precision at 20 px {precision[4.0]:.3f}, without normalised exposure {precision[1.0]:.3f}')
     assert precision[4.0] >= 0.5 and precision[1.0] < 0.1
 

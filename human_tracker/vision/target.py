@@ -1211,8 +1211,8 @@ class TargetTracker:
         if scale == self.scale:
             return
         ratio = scale / self.scale
+        factors = np.array([ratio, ratio, ratio, 1.0])  # a state [x, y, s, θ] at the new scale
         if self.filter.particles is not None and self.filter.previous is not None:
-            factors = np.array([ratio, ratio, ratio, 1.0])
             self.filter.particles = self.filter.particles * factors
             self.filter.previous = self.filter.previous * factors
         if self.previous_frame is not None:
@@ -1221,7 +1221,7 @@ class TargetTracker:
             if self.last_face is not None:
                 self.last_face = tuple(v * ratio for v in self.last_face)  # type: ignore[assignment]
             if self.reported_state is not None:
-                self.reported_state = self.reported_state * np.array([ratio, ratio, ratio, 1.0])
+                self.reported_state = self.reported_state * factors
             self.previous_frame = self.detected_on = None
             self._pending = None
         self.scale = scale

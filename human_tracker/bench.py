@@ -6,8 +6,9 @@
   sequences in ``../shared/data/real`` (when present), same frames, same first box; and
   the skin labels' precision and recall on the hand bags and hand-labelled real frames;
 - conditions: ours with ``min_target_width`` and without it on real sequences set in frames
-  twice as wide and high, and with the skin stage's exposure normalisation and without it on
-  ``hand2`` dimmed (:mod:`~human_tracker.evaluation.conditions`);
+  twice as wide and high, with the skin stage's exposure normalisation and without it on
+  ``hand2`` dimmed, and with the particles carried by the camera's motion and without on
+  real sequences shaken (:mod:`~human_tracker.evaluation.conditions`);
 - latency: end-to-end over DDS, described below.
 
 Results go to ``out/bench/results.json`` and ``out/bench/results.md``.
@@ -496,14 +497,22 @@ def main(argv: list[str] | None = None) -> int:
         report += ['## skin labels (§3.2) against true skin\n', _table(results['skin'], columns)]
     conditions: dict[str, str] = {}  # the tables, by their block in evaluation.md
     if 'conditions' in sections:
-        from human_tracker.evaluation.conditions import DIM_BRIGHTNESS, dim_light_rows, small_target_rows
+        from human_tracker.evaluation.conditions import (
+            DIM_BRIGHTNESS,
+            SHAKE_MARGIN,
+            dim_light_rows,
+            shaken_camera_rows,
+            small_target_rows,
+        )
 
         titles = {
             'small': 'small targets in wide frames (real sequences in frames twice as wide and high)',
             'dim': f'dim light (the real hand at {DIM_BRIGHTNESS:g} of its brightness)',
+            'shake': f'a shaking camera (real sequences cropped {SHAKE_MARGIN} px in, the crop jolting)',
         }
         results['small'] = small_target_rows(options.real_data, options.out / 'conditions')
         results['dim'] = dim_light_rows(options.real_data, options.out / 'conditions')
+        results['shake'] = shaken_camera_rows(options.real_data, options.out / 'conditions')
         for name, title in titles.items():
             if results[name]:
                 # Each row's columns in order: the sequence, the setting, the start, the figures.

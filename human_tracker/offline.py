@@ -207,7 +207,9 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
             if frame.index == 0 and options.init is not None:
                 check_box_in_image(options.init, frame.image.shape)
                 people.initialise_from_box(options.init, init_kind)
-            outcomes = people.process(frame.image if frame.image.ndim == 3 else gray, motion, skin)
+            # The camera's motion the background stage measured, in the camera's pixels.
+            shake = background.camera_motion_in(gray.shape[1]) if options.cue == 'background' else None
+            outcomes = people.process(frame.image if frame.image.ndim == 3 else gray, motion, skin, camera_motion=shake)
             elapsed += time.perf_counter() - start
             busy += time.process_time() - cpu
             motion_set_aside += outcomes[0].result.motion_set_aside

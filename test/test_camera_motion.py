@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from human_tracker.vision.background import BackgroundModel, BackgroundParameters
-from human_tracker.vision.camera_motion import CameraMotion, estimate_camera_motion, move_states
+from human_tracker.vision.camera_motion import CameraMotion, estimate_camera_motion, move_states, scale_transform
+from human_tracker.vision.target import TargetParameters, TargetTracker
 from human_tracker.vision.templates import head_and_shoulders
 from human_tracker.vision.tracker import ContourTracker, TrackerParameters
 
@@ -95,6 +96,32 @@ def test_states_move_with_the_camera() -> None:
     np.testing.assert_allclose(moved, [[10.0 - 2.0, 6.0, 40.0, 0.1 + np.pi / 2]])
 
 
+def test_a_motion_measured_on_a_reduced_frame_scales_its_shift_only() -> None:
+    transform = np.array([[0.8, -0.6, 3.0], [0.6, 0.8, -2.0]])
+    np.testing.assert_allclose(scale_transform(transform, 2.0), [[0.8, -0.6, 6.0], [0.6, 0.8, -4.0]])
+    assert transform[0, 2] == 3.0  # a copy
+
+
+def test_the_tracker_is_carried_by_the_shake_and_leaves_the_pan_to_its_dynamics() -> None:
+    """Hand-computed: a camera panning so the scene shifts 8 camera px a frame, handed to a
+    tracker at half size (4 working px) with pan_smoothing 0.7: the running mean of the shift
+    is 0.3 * 4 = 1.2, then 0.7 * 1.2 + 1.2 = 2.04, so the particles are carried by the rest,
+    2.8 then 1.96 px; a still camera carries nothing."""
+    image = cv2.cvtColor(cv2.resize(_scene(3), (640, 480)), cv2.COLOR_GRAY2BGR)
+    tracker = TargetTracker(head_and_shoulders(), TrackerParameters(), TargetParameters(proposals='off'))
+    tracker.initialise_from_box((300.0, 200.0, 60.0, 70.0))
+    pan = np.array([[1.0, 0.0, 8.0], [0.0, 1.0, 0.0]])
+    carried = []
+    for _ in range(2):
+        tracker.process(image, camera_motion=pan)
+        carried.append(tracker.camera_motion[:, 2])
+    np.testing.assert_allclose(carried, [[2.8, 0.0], [1.96, 0.0]])
+    still = TargetTracker(head_and_shoulders(), TrackerParameters(), TargetParameters(proposals='off'))
+    still.initialise_from_box((300.0, 200.0, 60.0, 70.0))
+    still.process(image, camera_motion=np.eye(2, 3))
+    assert still.camera_motion is None
+
+
 def test_the_filter_keeps_the_targets_own_velocity() -> None:
     """The camera pans so the scene shifts by -4 px a frame; a target still in the world was
     seen still in the last two frames' coordinates: carried, its velocity is the world's 0."""
@@ -117,3 +144,8 @@ def test_the_background_follows_the_camera() -> None:
         with_camera, without = compensated.apply(frame), fixed.apply(frame)
     assert np.count_nonzero(with_camera[:, 30:]) < 0.01 * with_camera[:, 30:].size
     assert np.count_nonzero(without) > 0.2 * without.size
+    # The motion it measured, for the tracker: the shift of the last frame.
+    np.testing.assert_allclose(compensated.camera_motion, [[1.0, 0.0, 3.0], [0.0, 1.0, 0.0]], atol=0.1)
+    # In the pixels of the camera's frame, twice as wide.
+    np.testing.assert_allclose(compensated.camera_motion_in(640), [[1.0, 0.0, 6.0], [0.0, 1.0, 0.0]], atol=0.2)
+    assert fixed.camera_motion is None and fixed.camera_motion_in(640) is None

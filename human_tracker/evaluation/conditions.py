@@ -9,6 +9,10 @@
 - **Dim light** (:func:`dim`). A camera at the end of its exposure range (a dim room) gives
   frames far darker than our sequences': ``hand2`` at 0.4 of its brightness. Ours runs with
   the skin stage's exposure normalisation and without it (``max_exposure_gain`` 1).
+- **A shaking camera** (:func:`shake`). A robot's camera jitters as it drives or turns its
+  head: each frame a crop of the sequence's whose offset follows a random walk, as far as
+  :data:`SHAKE_MARGIN` pixels from the middle. Ours runs carrying its particles with the
+  camera's motion and without (``compensate_camera``).
 
 Each from the first box and without one, over a few seeds.
 """
@@ -28,7 +32,18 @@ from human_tracker.vision.skin import SkinParameters
 from human_tracker.vision.target import TargetParameters, parameters_for
 from human_tracker.vision.tracker import TrackerParameters
 
-__all__ = ['DIM_BRIGHTNESS', 'SEQUENCES', 'dim', 'dim_light_rows', 'small_target_rows', 'widen']
+__all__ = [
+    'DIM_BRIGHTNESS',
+    'SEQUENCES',
+    'SHAKEN',
+    'SHAKE_MARGIN',
+    'dim',
+    'dim_light_rows',
+    'shake',
+    'shaken_camera_rows',
+    'small_target_rows',
+    'widen',
+]
 
 # The sequences set in wide frames and their targets: the real hand, the smallest head, and a
 # head already as small as the working frame allows once reduced (trellis, 34 working pixels),
@@ -37,6 +52,13 @@ SEQUENCES = {'hand2': 'hand', 'sunshade': 'head', 'trellis': 'head'}
 BORDER_GREY = 120
 # The brightness of the dimmed frames, a fraction of the sequence's own.
 DIM_BRIGHTNESS = 0.4
+# The sequences shaken and their targets: the real hand and the two heads the shake moved most.
+SHAKEN = {'hand2': 'hand', 'david_colour': 'head', 'interview_alberto': 'head'}
+# How far a shaken frame's crop moves from the middle (pixels), the standard deviation of its
+# step from one frame to the next, and how much of its offset it keeps (an AR(1) walk).
+SHAKE_MARGIN = 20
+SHAKE_STEP = 6.0
+SHAKE_MEMORY = 0.7
 
 
 def widen(sequence: Path, out: Path) -> Path:
@@ -62,6 +84,34 @@ def dim(sequence: Path, out: Path, brightness: float = DIM_BRIGHTNESS) -> Path:
     exposure quantises them), written to ``out`` with its boxes; returns ``out``."""
     _rewrite_frames(sequence, out, lambda image: cv2.convertScaleAbs(image, alpha=brightness))
     write_groundtruth(out / 'groundtruth.txt', read_groundtruth(sequence / 'groundtruth.txt'))
+    return out
+
+
+def shake(sequence: Path, out: Path, seed: int = 7) -> Path:
+    """``sequence``'s frames seen by a shaking camera, written to ``out`` with its boxes moved;
+    returns ``out``. Each frame is cropped :data:`SHAKE_MARGIN` pixels in from every side,
+    offset by a seeded walk: ``d_k = SHAKE_MEMORY d_(k-1) + N(0, SHAKE_STEP²)`` per axis,
+    clipped to the margin (steps of up to 15 pixels, as a robot's head that jolts)."""
+    rng = np.random.default_rng(seed)
+    offset = np.zeros(2)
+    offsets = []
+
+    def shaken(image: np.ndarray) -> np.ndarray:
+        nonlocal offset
+        offset = np.clip(SHAKE_MEMORY * offset + rng.normal(0.0, SHAKE_STEP, 2), -SHAKE_MARGIN, SHAKE_MARGIN)
+        dx, dy = (int(round(v)) for v in offset)
+        offsets.append((dx, dy))
+        height, width = image.shape[:2]
+        m = SHAKE_MARGIN
+        return image[m + dy : height - m + dy, m + dx : width - m + dx]
+
+    _rewrite_frames(sequence, out, shaken)
+    boxes = read_groundtruth(sequence / 'groundtruth.txt')
+    moved = [
+        None if box is None else (box[0] - SHAKE_MARGIN - dx, box[1] - SHAKE_MARGIN - dy, box[2], box[3])
+        for box, (dx, dy) in zip(boxes, offsets, strict=False)
+    ]
+    write_groundtruth(out / 'groundtruth.txt', moved)
     return out
 
 
@@ -93,6 +143,23 @@ def dim_light_rows(real_data: Path, out: Path, seeds: tuple[int, ...] = (0, 1, 2
     values = {skin.max_exposure_gain: (parameters, skin), 1.0: (parameters, replace(skin, max_exposure_gain=1.0))}
     name = f'hand2 at {DIM_BRIGHTNESS:g} brightness'
     return _rows(folder, name, 'hand', 'max_exposure_gain', values, seeds, out / 'hand2_dim_runs')
+
+
+def shaken_camera_rows(real_data: Path, out: Path, seeds: tuple[int, ...] = (0, 1, 2)) -> list[dict[str, object]]:
+    """As :func:`small_target_rows`, for :data:`SHAKEN` shaken (:func:`shake`), with the particles
+    carried by the camera's motion and without."""
+    rows = []
+    for name, target in SHAKEN.items():
+        if not (real_data / name / 'img').is_dir():
+            continue
+        folder = shake(real_data / name, out / f'{name}_shaken')
+        parameters = parameters_for(target)
+        values = {
+            1.0: (parameters, SkinParameters()),
+            0.0: (replace(parameters, compensate_camera=False), SkinParameters()),
+        }
+        rows += _rows(folder, f'{name} shaken', target, 'compensate_camera', values, seeds, out / f'{name}_shaken_runs')
+    return rows
 
 
 def _rows(

@@ -145,7 +145,8 @@ def _skin_pipeline(
         image = message_to_bgr8(messages[i])
         working = to_working(image, working_width)
         skin = segmenter.segment(working, working_scale(image.shape[1], working_width))
-        return process(image, cue.apply(to_mono8(working)), skin)
+        mask = cue.apply(to_mono8(working))
+        return process(image, mask, skin, camera_motion=cue.camera_motion_in(image.shape[1]))
 
     return run
 
@@ -162,6 +163,7 @@ def _pipeline(
     def run(i: int) -> object:
         image = message_to_bgr8(messages[i])
         mask = cue.apply(to_working(to_mono8(image), working_width))
-        return target.process(image, mask)  # colour: the appearance term's histograms
+        # Colour: the appearance term's histograms.
+        return target.process(image, mask, camera_motion=cue.camera_motion_in(image.shape[1]))
 
     return run

@@ -48,7 +48,10 @@ class CameraSubscriber(ImageStage):
         mask = None if self.motion_stage is None else self.motion_stage.process_frame(image, header)
         skin = None if self.skin_stage is None else self.skin_stage.process_frame(image, header)
         self.counters.processed += 1
-        return self.tracker.process_frame(image, header, motion=mask, skin=skin)
+        # The background stage's measure of the camera's motion carries the particles (no cost).
+        background = self.motion_stage.model if isinstance(self.motion_stage, BackgroundNode) else None
+        shake = None if background is None else background.camera_motion_in(image.shape[1])
+        return self.tracker.process_frame(image, header, motion=mask, skin=skin, camera_motion=shake)
 
 
 def build_pipeline() -> list[Node]:

@@ -120,7 +120,11 @@ TARGET_PARAMETERS = (
     ParameterSpec('patient_every', 'Frames between face detector runs once several found no face.', 1, 100000),
     ParameterSpec('face_search_reach', 'Face sizes around the predicted face the detector looks within.', 0.5, 10.0),
     ParameterSpec('detector_thread', 'Face detector in its own thread; its faces serve the next frame.', runtime=False),
-    ParameterSpec('compensate_camera', "Carry the particles with the camera's own image motion before predicting."),
+    ParameterSpec(
+        'compensate_camera', "Carry the particles with the camera's shake (as the background stage measures it)."
+    ),
+    ParameterSpec('estimate_camera_motion', "Without a background stage in process, measure the camera's motion here."),
+    ParameterSpec('pan_smoothing', "Weight of the past in the camera's mean shift, left to the dynamics.", 0.0, 0.99),
     ParameterSpec(
         'motion_mode',
         'How motion enters the likelihood: off (eqs. 1-2), weighted (eqs. 3-4) or mask (moving edges only).',
@@ -507,7 +511,14 @@ class TrackerNode(ImageStage):
             cues = {**given, **found}
             start = time.perf_counter()
             self.guarded(
-                self.track, image, header, cues.get(self.motion_input), cues.get('skin'), cues.get('depth'), shared
+                self.track,
+                image,
+                header,
+                cues.get(self.motion_input),
+                cues.get('skin'),
+                cues.get('depth'),
+                shared,
+                cues.get('camera_motion'),
             )
             self.timer_stats.took(time.perf_counter() - start)
         lost = set()
@@ -530,11 +541,18 @@ class TrackerNode(ImageStage):
         return all(stamp in self.masks[topic] for topic in self.mask_topics)
 
     def handle_frame(
-        self, image: np.ndarray, header: Any, motion: np.ndarray | None = None, skin: np.ndarray | None = None
+        self,
+        image: np.ndarray,
+        header: Any,
+        motion: np.ndarray | None = None,
+        skin: np.ndarray | None = None,
+        camera_motion: np.ndarray | None = None,
     ) -> object:
-        """Track on one frame: now when no mask is expected (or they are given), else once they arrive."""
+        """Track on one frame: now when no mask is expected (or they are given), else once they
+        arrive. ``camera_motion``: the camera's motion onto this frame, camera pixels, as the
+        in-process background stage measured it (``pipeline``)."""
         if self.mask_topics:
-            given = {self.motion_input: motion, 'skin': skin}
+            given = {self.motion_input: motion, 'skin': skin, 'camera_motion': camera_motion}
             stamp = stamp_ns(header)
             shared: dict = {}
             if not self.pending and not self._has_masks(stamp):
@@ -546,7 +564,7 @@ class TrackerNode(ImageStage):
             self.pending.append((stamp, time.monotonic(), image, header, given, shared))
             self._drain()
             return DEFERRED
-        return self.track(image, header, motion, skin)
+        return self.track(image, header, motion, skin, camera_motion=camera_motion)
 
     def track(
         self,
@@ -556,6 +574,7 @@ class TrackerNode(ImageStage):
         skin: np.ndarray | None = None,
         depth: np.ndarray | None = None,
         shared: dict | None = None,
+        camera_motion: np.ndarray | None = None,
     ) -> TargetResult | None:
         """Run the tracker on one frame and publish what it found under ``header`` (``shared``:
         its working frames computed beforehand, :meth:`PersonTracker.process`)."""
@@ -591,7 +610,7 @@ class TrackerNode(ImageStage):
                 self.init_box = None
                 self.start_problem = f'init_box ignored: {err}'
                 self.get_logger().error(self.start_problem)
-        outcomes = self.people.process(image, motion, skin, shared)
+        outcomes = self.people.process(image, motion, skin, shared, camera_motion)
         result = outcomes[0].result
         self.last_result, self.last_outcomes = result, outcomes
         self.status_header = header

@@ -28,7 +28,7 @@ import cv2
 import numba
 import numpy as np
 
-from human_tracker.vision.camera_motion import CameraMotion
+from human_tracker.vision.camera_motion import CameraMotion, scale_transform
 from human_tracker.vision.morphology import disk
 
 __all__ = ['BackgroundParameters', 'BackgroundModel', 'background_decision']
@@ -151,7 +151,10 @@ class BackgroundModel:
     """The dynamic reference frame m and noise variance σ² of every pixel.
 
     ``apply(gray)`` classifies a frame, updates the model on its background pixels and
-    returns the cleaned foreground mask. The fields are the model's whole state.
+    returns the cleaned foreground mask. The fields are the model's whole state;
+    ``camera_motion`` is the camera's image motion from the previous frame to the last one
+    applied (``(2, 3)``, :mod:`~human_tracker.vision.camera_motion`, in that frame's pixels),
+    None where it is not known (``compensate_camera`` off, the first frame, a blank frame).
     """
 
     parameters: BackgroundParameters = field(default_factory=BackgroundParameters)
@@ -160,6 +163,7 @@ class BackgroundModel:
     previous: np.ndarray | None = None
     foreground: np.ndarray | None = None
     camera: CameraMotion = field(default_factory=CameraMotion)
+    camera_motion: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         self.parameters.validate()
@@ -170,6 +174,7 @@ class BackgroundModel:
         self.variance = None
         self.previous = None
         self.foreground = None
+        self.camera_motion = None
         self.camera.reset()
 
     def apply(self, gray: np.ndarray) -> np.ndarray:
@@ -184,6 +189,7 @@ class BackgroundModel:
         p = self.parameters
         # uint8 frames go to the kernel as they are: a float copy of the frame costs more than the test.
         frame = np.asarray(gray)
+        self.camera_motion = None
         if self.mean is None or self.variance is None or self.mean.shape != frame.shape:
             # The first frame (or a new image size) is taken as background.
             self.mean = frame.astype(np.float32)
@@ -217,7 +223,7 @@ class BackgroundModel:
     def _follow_camera(self, frame: np.ndarray) -> None:
         """Carry the reference frame with the camera's motion from the previous frame to ``frame``."""
         assert self.mean is not None and self.variance is not None and self.previous is not None
-        transform = self.camera.estimate(self.previous, frame, self.foreground)
+        self.camera_motion = transform = self.camera.estimate(self.previous, frame, self.foreground)
         if transform is None:
             return  # nothing to follow (a blank frame): keep the model as it is
         if np.array_equal(transform, np.eye(2, 3)):
@@ -227,6 +233,13 @@ class BackgroundModel:
         self.mean = np.where(seen, cv2.warpAffine(self.mean, transform, size), frame).astype(np.float32)
         variance = cv2.warpAffine(self.variance, transform, size)
         self.variance = np.where(seen, variance, self.parameters.initial_variance).astype(np.float32)
+
+    def camera_motion_in(self, width: int) -> np.ndarray | None:
+        """``camera_motion`` in the pixels of the same frame ``width`` pixels wide (the camera's,
+        where the model runs on a reduced frame); None where it is not known."""
+        if self.camera_motion is None or self.mean is None:
+            return None
+        return scale_transform(self.camera_motion, width / self.mean.shape[1])
 
     def reference_frame(self) -> np.ndarray | None:
         """The dynamic reference frame m as ``uint8`` (the background estimate), or None."""

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-__all__ = ['CameraMotion', 'CameraMotionParameters', 'estimate_camera_motion', 'move_states']
+__all__ = ['CameraMotion', 'CameraMotionParameters', 'estimate_camera_motion', 'move_states', 'scale_transform']
 
 
 @dataclass(frozen=True)
@@ -150,3 +150,11 @@ def move_states(states: np.ndarray, transform: np.ndarray) -> np.ndarray:
     moved[:, 2] *= np.hypot(a, b)
     moved[:, 3] += np.arctan2(b, a)
     return moved
+
+
+def scale_transform(transform: np.ndarray, factor: float) -> np.ndarray:
+    """The same camera motion in pixels ``factor`` times as large (``(2, 3)``: the shift scales,
+    the rotation and zoom do not): a motion measured on a reduced frame, in the camera's pixels."""
+    scaled = np.array(transform, dtype=np.float64, copy=True)
+    scaled[:, 2] *= factor
+    return scaled

@@ -251,6 +251,7 @@ class PersonTracker:
         motion: np.ndarray | None = None,
         skin: np.ndarray | None = None,
         shared: SharedFrames | None = None,
+        camera_motion: np.ndarray | None = None,
     ) -> list[TrackedTarget]:
         """Track every target on one frame (arguments as :meth:`TargetTracker.process`; beside a
         hand, the skin labels go to the hands only: a head-and-shoulders outline is not skin).
@@ -284,7 +285,10 @@ class PersonTracker:
                 single = skin if len(self.kinds) == 1 else None
                 # Identified before the hands look: a head this slot may not take up (a later
                 # person's without a face) is LOST, no one's face to hand over or keep off.
-                result = self._identify(slot, tracker.process(image, motion, single, exclude=exclude, shared=shared))
+                found = tracker.process(
+                    image, motion, single, exclude=exclude, shared=shared, camera_motion=camera_motion
+                )
+                result = self._identify(slot, found)
                 if self.hands_handed_faces:
                     faces[slot.person] = self._face_of(tracker, result)
                 if result.tracking:
@@ -294,7 +298,16 @@ class PersonTracker:
             else:
                 face = faces.get(slot.person)
                 avoid = self._faces_to_avoid(slot.person, followed, faced, face)
-                found = tracker.process(image, motion, skin, face=face, exclude=exclude, avoid=avoid, shared=shared)
+                found = tracker.process(
+                    image,
+                    motion,
+                    skin,
+                    face=face,
+                    exclude=exclude,
+                    avoid=avoid,
+                    shared=shared,
+                    camera_motion=camera_motion,
+                )
                 result = self._identify(slot, found)
             ran.append((slot, result))
         ran = self._keep_apart(sorted(ran, key=lambda run: self.slots.index(run[0])))

@@ -47,7 +47,7 @@ import numpy as np
 
 from human_tracker.vision.appearance import AppearanceModel, colour_bins
 from human_tracker.vision.boxes import Box, BoxRelation, box_centre, centre_within
-from human_tracker.vision.camera_motion import estimate_camera_motion, move_states
+from human_tracker.vision.camera_motion import estimate_camera_motion, move_states, scale_transform
 from human_tracker.vision.exposure import normalise_exposure
 from human_tracker.vision.faces import FACE_ON_HEAD, Detection, FaceDetector, face_detector_available
 from human_tracker.vision.initialisation import blobs, moments_state, state_from_scan, upper_end_state
@@ -156,11 +156,19 @@ class TargetParameters:
             face found last is a weak frame, and the face is cut from the skin regions that
             hypotheses come from. Needs dlib.
         compensate_camera: Carry the particles with the camera's own image motion between
-            frames (:mod:`~human_tracker.vision.camera_motion`, estimated away from the
-            target) before each prediction, so the AR(2) velocity is the target's own. Off by
-            default: on a hand-held camera that follows the person (sunshade) the damped
-            velocity then lags the camera (precision 0.62 -> 0.49, 5 seeds); for a robot's
-            head turning past a person who stands still it is the right model.
+            frames (:mod:`~human_tracker.vision.camera_motion`) before each prediction, so the
+            AR(2) velocity is the target's own: the motion the background stage measured,
+            handed to :meth:`TargetTracker.process` (no cost), or with
+            ``estimate_camera_motion`` the tracker's own estimate. A robot's camera shakes
+            (real sequences shaken by a random walk of crops: docs/evaluation.md).
+        estimate_camera_motion: With ``compensate_camera``, estimate the motion here, away
+            from the target, when none is handed (a tracker fed another process's masks, or
+            the flow cue): about 1.4 ms a frame at 320x240.
+        pan_smoothing: Weight of the past in the running mean of the camera's shift per
+            frame, in [0, 1). That mean (a pan; an operator or a robot's head following the
+            person, who then stays put in the image) is left to the AR(2) velocity, and only
+            the rest (shake) carries the particles; 0 carries them with the whole motion,
+            whose damped velocity then lags a camera that follows the person (sunshade).
         motion_mode: ``off`` (eqs. 1-2), ``weighted`` (eqs. 3-4) or ``mask`` (edges on moving
             pixels only).
         max_motion_fraction: A motion mask covering more of the frame than this isolates
@@ -227,7 +235,9 @@ class TargetParameters:
     face_search_reach: float = 2.0
     detector_thread: bool = True
     avoid_faces: bool = False
-    compensate_camera: bool = False
+    compensate_camera: bool = True
+    estimate_camera_motion: bool = False
+    pan_smoothing: float = 0.7
     motion_mode: str = 'weighted'
     max_motion_fraction: float = 0.5
     colour_mode: str = 'weighted'
@@ -280,6 +290,8 @@ class TargetParameters:
         for name in ('adaptation_rate', 'lost_appearance_distance'):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ValueError(f'{name} must be in [0, 1], got {getattr(self, name)}')
+        if not 0.0 <= self.pan_smoothing < 1.0:
+            raise ValueError(f'pan_smoothing must be in [0, 1), got {self.pan_smoothing}')
         if not 0.0 < self.max_motion_fraction <= 1.0:
             raise ValueError(f'max_motion_fraction must be in (0, 1], got {self.max_motion_fraction}')
         if self.skin_margin < 0:
@@ -471,7 +483,9 @@ class TargetTracker:
     frames_without_own_face: int = field(default=0, init=False)
     last_face: tuple[float, float, float, float] | None = field(default=None, init=False)
     previous_frame: np.ndarray | None = field(default=None, init=False)
-    camera_motion: np.ndarray | None = field(default=None, init=False)  # (2, 3) since the last frame
+    # The camera's motion since the last frame the particles were carried by (working pixels).
+    camera_motion: np.ndarray | None = field(default=None, init=False)
+    pan: np.ndarray = field(default_factory=lambda: np.zeros(2), init=False)  # pan_smoothing's mean shift
     # The state [x, y, s, θ] reported on the last frame (working pixels): with
     # ``detector_thread``, the contour on the frame the faces delivered on this one were found on.
     reported_state: np.ndarray | None = field(default=None, init=False, repr=False)
@@ -573,6 +587,7 @@ class TargetTracker:
         self._pending = None
         self.reported_state = None
         self.previous_frame = None
+        self.pan = np.zeros(2)
         self.start_box = None
         self.started_from_box = False
         self.finest_scale = None
@@ -673,6 +688,7 @@ class TargetTracker:
         exclude: Sequence[Box] = (),
         avoid: Sequence[Box] = (),
         shared: SharedFrames | None = None,
+        camera_motion: np.ndarray | None = None,
     ) -> TargetResult:
         """Track on one frame.
 
@@ -694,6 +710,10 @@ class TargetTracker:
             shared: The working frames other trackers computed from this ``image``
                 (:meth:`working_frame`), filled with this one's: trackers with the same
                 working width and edge settings compute them once.
+            camera_motion: With ``compensate_camera``, the camera's image motion from the
+                last frame to this one (``(2, 3)``, :mod:`~human_tracker.vision.camera_motion`,
+                camera pixels) as the background stage measured it; None: estimated here with
+                ``estimate_camera_motion``, else not compensated on this frame.
 
         Returns:
             The outcome, its estimate in the camera's pixels.
@@ -711,7 +731,7 @@ class TargetTracker:
             self._pending = None  # the face handed over is this frame's
         frame = self.working_frame(image, shared)
         bins, image, edges = frame.bins, frame.image, frame.edges
-        self._follow_camera(frame.grey)
+        self._follow_camera(frame.grey, camera_motion)
         likelihood_motion = likelihood_skin = None
         if motion is not None and p.motion_mode == 'mask':
             edges = np.where(motion > 0, edges, 0).astype(np.uint8)
@@ -914,22 +934,33 @@ class TargetTracker:
         self.box_relation = BoxRelation.of(box, best)
         self.appearance = AppearanceModel.learn(bins, best, self.box_relation, self.parameters.appearance_parts)
 
-    def _follow_camera(self, grey: np.ndarray) -> None:
-        """Carry the particles with the camera's motion since the last frame (working pixels),
-        estimated away from the target (``compensate_camera``)."""
+    def _follow_camera(self, grey: np.ndarray, handed: np.ndarray | None) -> None:
+        """Carry the particles with the camera's shake since the last frame (``compensate_camera``):
+        its motion, ``handed`` (camera pixels) or estimated away from the target, less the
+        running mean of its shift (``pan_smoothing``)."""
         previous, self.previous_frame = self.previous_frame, grey
         self.camera_motion = None
         particles = self.filter.particles
-        if not self.parameters.compensate_camera or particles is None or previous is None:
+        p = self.parameters
+        if not p.compensate_camera:
             return
-        if previous.shape != grey.shape:
+        if handed is not None:
+            transform = scale_transform(handed, self.scale)
+        elif p.estimate_camera_motion and particles is not None and _same_shape(previous, grey):
+            x, y, s = particles.mean(axis=0)[:3]
+            exclude = np.zeros(grey.shape, np.uint8)
+            # The head and shoulders (or the hand and forearm) around the state: it moves on its own.
+            cv2.rectangle(exclude, (int(x - 1.5 * s), int(y - 1.5 * s)), (int(x + 1.5 * s), int(y + 2.5 * s)), 255, -1)
+            transform = estimate_camera_motion(previous, grey, exclude)
+        else:
             return
-        x, y, s = particles.mean(axis=0)[:3]
-        exclude = np.zeros(grey.shape, np.uint8)
-        # The head and shoulders (or the hand and forearm) around the state: it moves on its own.
-        cv2.rectangle(exclude, (int(x - 1.5 * s), int(y - 1.5 * s)), (int(x + 1.5 * s), int(y + 2.5 * s)), 255, -1)
-        self.camera_motion = transform = estimate_camera_motion(previous, grey, exclude)
-        if transform is not None:
+        if transform is None:
+            return
+        # The pan is followed while the filter waits too: a target found mid-pan is not shaken.
+        self.pan = p.pan_smoothing * self.pan + (1.0 - p.pan_smoothing) * transform[:, 2]
+        transform[:, 2] -= self.pan
+        if particles is not None and not np.array_equal(transform, np.eye(2, 3)):
+            self.camera_motion = transform
             self.filter.follow_camera(transform)
 
     def _detect(self, image: np.ndarray) -> list[Detection] | None:
@@ -1280,6 +1311,10 @@ def _moves_within(motion: np.ndarray, states: np.ndarray, reach: float, margin: 
     left, top = (max(0, int(np.floor(v - radius))) for v in states[:, :2].min(axis=0))
     right, bottom = (max(0, int(np.ceil(v + radius)) + 1) for v in states[:, :2].max(axis=0))
     return bool(np.any(motion[top:bottom, left:right]))
+
+
+def _same_shape(previous: np.ndarray | None, current: np.ndarray) -> bool:
+    return previous is not None and previous.shape == current.shape
 
 
 def _face_and_neck(face: tuple[float, float, float, float]) -> tuple[float, float, float, float]:

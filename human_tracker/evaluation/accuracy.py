@@ -214,8 +214,8 @@ def compare_on_sequence(
     ``target`` overrides what the sequence says it outlines (a folder of frames says
     nothing: head); ``without_box`` adds our tracker started by itself (no first box);
     ``paper`` adds the paper's tracker from the first box (``likelihood: paper``,
-    ``proposals: off``, a hand open only: the shape and cue likelihoods of eqs. 1-4 and §3.2
-    alone); ``person``
+    ``proposals: off``, ``compensate_camera`` off, a hand open only: the shape and cue
+    likelihoods of eqs. 1-4 and §3.2 alone, on the paper's fixed camera); ``person``
     adds ours following the whole person (head and hand, :mod:`~human_tracker.vision.people`)
     from the target's first box and without one, the target's own track scored.
     """
@@ -240,7 +240,8 @@ def compare_on_sequence(
         if without_box:
             variants.append(('ours', None, None))
         if paper:
-            variants.append(('paper', init, replace(parameters_for(target), likelihood='paper', proposals='off')))
+            paper_parameters = replace(parameters_for(target), likelihood='paper', proposals='off', compensate_camera=False)
+            variants.append(('paper', init, paper_parameters))
         if person:
             variants += [('person', init, None), ('person', None, None)]
         for name, start, parameters in variants:

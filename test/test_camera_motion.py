@@ -108,7 +108,8 @@ def test_the_tracker_is_carried_by_the_shake_and_leaves_the_pan_to_its_dynamics(
     is 0.3 * 4 = 1.2, then 0.7 * 1.2 + 1.2 = 2.04, so the particles are carried by the rest,
     2.8 then 1.96 px; a still camera carries nothing."""
     image = cv2.cvtColor(cv2.resize(_scene(3), (640, 480)), cv2.COLOR_GRAY2BGR)
-    tracker = TargetTracker(head_and_shoulders(), TrackerParameters(), TargetParameters(proposals='off'))
+    parameters = TargetParameters(proposals='off', pan_smoothing=0.7)
+    tracker = TargetTracker(head_and_shoulders(), TrackerParameters(), parameters)
     tracker.initialise_from_box((300.0, 200.0, 60.0, 70.0))
     pan = np.array([[1.0, 0.0, 8.0], [0.0, 1.0, 0.0]])
     carried = []

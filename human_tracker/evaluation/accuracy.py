@@ -240,8 +240,8 @@ def compare_on_sequence(
         if without_box:
             variants.append(('ours', None, None))
         if paper:
-            paper_parameters = replace(parameters_for(target), likelihood='paper', proposals='off', compensate_camera=False)
-            variants.append(('paper', init, paper_parameters))
+            settings = replace(parameters_for(target), likelihood='paper', proposals='off', compensate_camera=False)
+            variants.append(('paper', init, settings))
         if person:
             variants += [('person', init, None), ('person', None, None)]
         for name, start, parameters in variants:

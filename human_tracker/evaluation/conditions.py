@@ -119,18 +119,7 @@ def small_target_rows(real_data: Path, out: Path, seeds: tuple[int, ...] = (0, 1
     """Precision at 20 px (mean, min, max over ``seeds``) and the worst confident-wrong share of
     ours on each of :data:`SEQUENCES` widened, with ``min_target_width`` and without, from the
     first box and without one; sequences absent from ``real_data`` are skipped."""
-    rows = []
-    for name, target in SEQUENCES.items():
-        if not (real_data / name / 'img').is_dir():
-            continue
-        folder = widen(real_data / name, out / f'{name}_wide')
-        parameters = parameters_for(target)
-        values = {
-            parameters.min_target_width: (parameters, SkinParameters()),
-            0.0: (replace(parameters, min_target_width=0.0), SkinParameters()),
-        }
-        rows += _rows(folder, f'{name} widened', target, 'min_target_width', values, seeds, out / f'{name}_wide_runs')
-    return rows
+    return _with_and_without(real_data, out, SEQUENCES, widen, 'widened', 'min_target_width', 0.0, seeds)
 
 
 def dim_light_rows(real_data: Path, out: Path, seeds: tuple[int, ...] = (0, 1, 2)) -> list[dict[str, object]]:
@@ -148,17 +137,33 @@ def dim_light_rows(real_data: Path, out: Path, seeds: tuple[int, ...] = (0, 1, 2
 def shaken_camera_rows(real_data: Path, out: Path, seeds: tuple[int, ...] = (0, 1, 2)) -> list[dict[str, object]]:
     """As :func:`small_target_rows`, for :data:`SHAKEN` shaken (:func:`shake`), with the particles
     carried by the camera's motion and without."""
+    return _with_and_without(real_data, out, SHAKEN, shake, 'shaken', 'compensate_camera', False, seeds)
+
+
+def _with_and_without(
+    real_data: Path,
+    out: Path,
+    sequences: dict[str, str],
+    rewrite: Callable[[Path, Path], Path],
+    label: str,
+    setting: str,
+    off: float | bool,
+    seeds: tuple[int, ...],
+) -> list[dict[str, object]]:
+    """The rows of each of ``sequences`` (name: target) present in ``real_data``, its frames
+    rewritten by ``rewrite`` (a sequence and an output folder to the new sequence), with the
+    target's default ``setting`` and with ``off``."""
     rows = []
-    for name, target in SHAKEN.items():
+    for name, target in sequences.items():
         if not (real_data / name / 'img').is_dir():
             continue
-        folder = shake(real_data / name, out / f'{name}_shaken')
+        folder = rewrite(real_data / name, out / f'{name}_{label}')
         parameters = parameters_for(target)
         values = {
-            1.0: (parameters, SkinParameters()),
-            0.0: (replace(parameters, compensate_camera=False), SkinParameters()),
+            float(getattr(parameters, setting)): (parameters, SkinParameters()),
+            float(off): (replace(parameters, **{setting: off}), SkinParameters()),
         }
-        rows += _rows(folder, f'{name} shaken', target, 'compensate_camera', values, seeds, out / f'{name}_shaken_runs')
+        rows += _rows(folder, f'{name} {label}', target, setting, values, seeds, out / f'{name}_{label}_runs')
     return rows
 
 

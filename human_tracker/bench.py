@@ -8,7 +8,8 @@
 - conditions: ours with ``min_target_width`` and without it on real sequences set in frames
   twice as wide and high, with the skin stage's exposure normalisation and without it on
   ``hand2`` dimmed, and with the particles carried by the camera's motion and without on
-  real sequences shaken (:mod:`~human_tracker.evaluation.conditions`);
+  real sequences shaken (:mod:`~human_tracker.evaluation.conditions`); and two people on the
+  ``people_crossing`` bag, seed by seed (:mod:`~human_tracker.evaluation.several_people`);
 - latency: end-to-end over DDS, described below.
 
 Results go to ``out/bench/results.json`` and ``out/bench/results.md``.
@@ -290,6 +291,15 @@ def _acceptance(results: dict[str, object]) -> list[dict[str, object]]:
         check(f'{name}: the head keeps one id, share of frames, worst run >= 0.9', share, 0.9)
     for sequence, nees in consistency.items():
         check(f'{sequence}: pose NEES of x, y within a factor 2 of 2', nees, (1.0, 4.0))
+    people: list[dict[str, object]] = results.get('people', [])  # type: ignore[assignment]
+    if people:
+        runs = f'people_crossing, two people, {len(people)} seeds'
+        tracks = [name for name in people[0] if '/' in name]
+        worst = min(float(row[name]) for row in people for name in tracks)  # type: ignore[arg-type]
+        check(f"{runs}: every track's precision at 20 px, worst seed >= 0.9", worst, 0.9)
+        switched = sum(int(row['id_switches']) > 0 for row in people)  # type: ignore[call-overload]
+        check(f'{runs}: seeds with an identity switch <= 0', switched, 0, at_most=True)
+        check(f'{runs}: IDF1, worst seed >= 0.9', min(float(row['idf1']) for row in people), 0.9)  # type: ignore[arg-type]
     for row in results.get('latency', []):  # type: ignore[union-attr]
         if row['rate'] == 'full speed':
             continue
@@ -504,15 +514,18 @@ def main(argv: list[str] | None = None) -> int:
             shaken_camera_rows,
             small_target_rows,
         )
+        from human_tracker.evaluation.several_people import two_people_rows
 
         titles = {
             'small': 'small targets in wide frames (real sequences in frames twice as wide and high)',
             'dim': f'dim light (the real hand at {DIM_BRIGHTNESS:g} of its brightness)',
             'shake': f'a shaking camera (real sequences cropped {SHAKE_MARGIN} px in, the crop jolting)',
+            'people': 'two people (people_crossing as a person, --max-people 2), seed by seed',
         }
         results['small'] = small_target_rows(options.real_data, options.out / 'conditions')
         results['dim'] = dim_light_rows(options.real_data, options.out / 'conditions')
         results['shake'] = shaken_camera_rows(options.real_data, options.out / 'conditions')
+        results['people'] = two_people_rows(Path('bags/people_crossing'), options.out / 'conditions' / 'people')
         for name, title in titles.items():
             if results[name]:
                 # Each row's columns in order: the sequence, the setting, the start, the figures.

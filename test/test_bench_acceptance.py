@@ -65,6 +65,10 @@ def test_bars_are_applied_to_the_measured_figures() -> None:
             {'sequence': 'hgr', 'method': 'pixels', 'precision': 0.85, 'recall': 0.91, 'f1': 0.88},
             {'sequence': 'x', 'method': 'cells', 'recall': 0.1},
         ],
+        'people': [  # seed by seed: the worst seed and track count, not the mean
+            {'seed': 0, 'person_1/head': 1.0, 'person_1/hand': 0.95, 'idf1': 0.95, 'id_switches': 0},
+            {'seed': 1, 'person_1/head': 0.99, 'person_1/hand': 0.7, 'idf1': 0.88, 'id_switches': 1},
+        ],
         'latency': [
             {
                 'layout': 'pipeline',
@@ -120,6 +124,9 @@ def test_bars_are_applied_to_the_measured_figures() -> None:
         'hgr, cells: skin recall >= 0.9': (0.8, 0.9, False),
         'hgr, pixels: skin F1 >= 0.92': (0.88, 0.92, False),
         'hgr, pixels: skin recall >= 0.9': (0.91, 0.9, True),
+        "people_crossing, two people, 2 seeds: every track's precision at 20 px, worst seed >= 0.9": (0.7, 0.9, False),
+        'people_crossing, two people, 2 seeds: seeds with an identity switch <= 0': (1, 0, False),
+        'people_crossing, two people, 2 seeds: IDF1, worst seed >= 0.9': (0.88, 0.9, False),
         'latency, pipeline, 30 Hz: poses received of 240 sent': (240, 240, True),
         'latency, pipeline, 30 Hz: median above processing (ms) <= 1': (0.8, 1.0, True),
         'latency, separate, 30 Hz: poses received of 240 sent': (239, 240, False),

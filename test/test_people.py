@@ -327,13 +327,16 @@ def test_two_people_crossing_are_scored_track_by_track(tmp_path) -> None:
     assert summary['targets']['head']['ids'] == 1 and 'person_2/head' not in summary['targets']
 
 
-def test_two_people_each_keep_their_head_and_id(tmp_path) -> None:
+@pytest.mark.parametrize('seed', [0, 16])
+def test_two_people_each_keep_their_head_and_id(tmp_path, seed: int) -> None:
     """people_crossing with two people: the second person's head is looked for away from the
     first's, so each head is held under one id while the walker crosses in front of the first;
     no two targets of a kind are ever reported on one region (the occupancy rule). The hand
     keeps off both faces, and gets its id back when it comes out from behind the walker's
-    head: no identity switch, IDF1 at least 0.9."""
-    options = TrackOptions(max_people=2, video=False, progress=False)
+    head: no identity switch, IDF1 at least 0.9. Seed 16: the hand is lost behind the
+    walker's head on frame 63; its filter, once carried away on the walker's face (0.387),
+    finds it again as it comes out (the faces a hand keeps off are not skin to it)."""
+    options = TrackOptions(max_people=2, filter_parameters=TrackerParameters(seed=seed), video=False, progress=False)
     summary = track_sequence(BAGS / 'people_crossing', tmp_path, options)
     print(summary['tracks'], summary['all_tracks'], summary['targets'])
     assert summary['tracks']['person_1/head']['precision_20px'] >= 0.95

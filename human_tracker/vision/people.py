@@ -12,13 +12,13 @@ contour puts the face while a face has just been found on that head, instead of 
 detector (which looks when the head has no fresh face: :meth:`PersonTracker._face_of`). Every
 hand keeps off where the other people's followed heads put their faces, found on them lately or
 not, and, among other people, its own person's face while it is hidden (``avoid``:
-:meth:`PersonTracker._faces_to_avoid`). A head whose face is not fresh (one taken up on a
-waving arm) hands nothing: kept off it, the hand lost its place to such a head (hand_wave as a
-person 0.95 -> 0.49). One person's only hand looks itself, as a hand alone: a face the hand
-hides is not found then, where the head's face, fresh for a few frames after it was last found,
-kept the hand passing in front of it off (hand2, twenty seeds: 0.588 -> 0.623 from the hand's
-box, 0.584 -> 0.612 without; handed nothing, a second hand settled on the face: hand2 with two
-hands, ten seeds, 0.519 -> 0.410).
+:meth:`PersonTracker._faces_to_avoid`): no start there, and no skin there to its likelihood.
+A head whose face is not fresh (one taken up on a waving arm) hands nothing: kept off it, the
+hand lost its place to such a head (hand_wave as a person 0.95 -> 0.49). One person's only hand
+looks itself, as a hand alone: a face the hand hides is not found then, where the head's face,
+fresh for a few frames after it was last found, kept the hand passing in front of it off
+(hand2, twenty seeds: 0.588 -> 0.623 from the hand's box, 0.584 -> 0.612 without; handed
+nothing, a second hand settled on the face: hand2 with two hands, ten seeds, 0.519 -> 0.410).
 
 Several targets, one frame: a target's tracker is handed the boxes the other targets of its
 kind hold (``exclude``; a hand's with the forearm below it): it starts no filter, hypothesis

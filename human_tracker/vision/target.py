@@ -746,12 +746,13 @@ class TargetTracker:
         given_box = None if self.start_box is None else tuple(v * self.scale for v in self.start_box)
         self.start_box = None
         exclude = [tuple(v * self.scale for v in box) for box in exclude]
-        avoid = [tuple(v * self.scale for v in box) for box in avoid] if p.avoid_faces else []
-        if avoid and likelihood_skin is not None:
+        # The other faces kept off, with the skin around them (working pixels).
+        avoided = [_face_and_neck(tuple(v * self.scale for v in box)) for box in avoid] if p.avoid_faces else []
+        if avoided and likelihood_skin is not None:
             # The faces a hand keeps off are skin, but not the hand's: on them, a hand lost
             # behind the walker's head kept its filter on the walker's face, which carried it
             # away for 30 frames (people_crossing with two people, seed 16: 0.387 -> 0.933).
-            likelihood_skin = _cleared(likelihood_skin, [_face_and_neck(box) for box in avoid])
+            likelihood_skin = _cleared(likelihood_skin, avoided)
         detections = None if handed else self._detect(image)
         # Faces are the target's proposals, or (avoid_faces) what the hand is not: only the
         # proposals keep out of the other targets' boxes.
@@ -759,7 +760,7 @@ class TargetTracker:
         if head_faces and exclude:
             head_faces = detections = [d for d in head_faces if not any(centre_within(d.box, box) for box in exclude)]
         states = np.array([FACE_ON_HEAD.state(d.box) for d in head_faces]) if head_faces else None
-        cleared = [*exclude, *(_face_and_neck(box) for box in avoid)]
+        cleared = [*exclude, *avoided]
         region = self.initial_region(motion, skin, cleared)
         skin_region = skin_starts = None
         if p.proposals == 'skin' and skin is not None:
@@ -817,7 +818,9 @@ class TargetTracker:
             # the head for the whole track).
             self.box_relation = BoxRelation.of(given_box, working_state)
         own_face = [self.last_face] if self.face_misses == 0 and self.last_face is not None else []
-        on_face = p.avoid_faces and any(centre_within(estimate.box, _face_and_neck(f)) for f in own_face + avoid)
+        on_face = p.avoid_faces and any(
+            centre_within(estimate.box, region) for region in [*map(_face_and_neck, own_face), *avoided]
+        )
         # A face this frame's own detector run found under the contour's centre is not hidden by
         # the hand, so the contour is on the face: LOST at once, not after `lost_frames`. (A face
         # found before, or handed over, may be behind the hand now: that is only a weak frame.)

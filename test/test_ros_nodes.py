@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import re
+import signal
 import time
 from collections.abc import Callable
 from typing import Any
@@ -428,6 +429,22 @@ def test_nonsense_parameters_at_start_are_refused(tmp_path, node: str, parameter
     assert process.start().wait(60.0) == 2, process.output()
     assert reason in process.output()
     assert 'Traceback' not in process.output()
+
+
+@pytest.mark.parametrize('stop_signal', [signal.SIGINT, signal.SIGTERM])
+def test_a_signal_stops_the_node_between_callbacks(tmp_path, stop_signal: signal.Signals) -> None:
+    """Ctrl-C (or SIGTERM from ros2 launch) while a node warms up from an empty kernel cache:
+    the warm-up callback ends, then the node stops with exit code 0. A signal that broke into
+    the callback, with rclpy shutting the context down from its own thread, made a pipeline
+    exit now and then with a segmentation fault."""
+    env = {**environment(), 'NUMBA_CACHE_DIR': str(tmp_path / 'numba_cache')}
+    process = NodeProcess('human_tracker.ros.skin_node', [], env, tmp_path / 'skin.log').start()
+    deadline = time.monotonic() + 60.0
+    while 'warming up' not in process.output() and process.process.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.05)
+    process.process.send_signal(stop_signal)
+    assert process.wait(120.0) == 0, process.output()
+    assert 'ready (' in process.output().split('warming up')[-1], process.output()
 
 
 def test_a_looping_replay_starts_the_tracker_over(tmp_path, head_bag) -> None:

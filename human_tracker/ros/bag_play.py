@@ -21,7 +21,6 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
@@ -36,7 +35,16 @@ from std_msgs.msg import Bool
 from std_srvs.srv import Trigger
 
 from human_tracker.io.bags import BagError, guarded, open_bag
-from human_tracker.ros.common import LATCHED_QOS, RESULT_QOS, node_status, publish_diagnostics, shutdown
+from human_tracker.ros.common import (
+    LATCHED_QOS,
+    RESULT_QOS,
+    init_without_signal_handlers,
+    node_status,
+    publish_diagnostics,
+    shutdown,
+    spin_until,
+    stop_on_signals,
+)
 
 __all__ = ['BagPlayer', 'main', 'message_class']
 
@@ -239,51 +247,53 @@ def main(args: list[str] | None = None) -> int:
     # take ``old:=new`` for a global remap rule of this node if it saw it.
     split = argv.index('--ros-args') if '--ros-args' in argv else len(argv)
     options = _arguments(argv[1:split])
-    rclpy.init(args=[argv[0], *argv[split:]])
+    init_without_signal_handlers([argv[0], *argv[split:]])
     player = None
     executor = None
     spinner = None
     bag = options.bag
     code = 0
-    try:
-        player = BagPlayer(
-            bag, rate=options.rate, topics=options.topics, remaps=_parse_remaps(options.remap), clock=options.clock
-        )
-        # Services (pause / resume) are served while the main thread publishes.
-        executor = SingleThreadedExecutor()
-        executor.add_node(player)
-        spinner = threading.Thread(target=executor.spin, daemon=True)
-        spinner.start()
-        late = player.wait_for_ready(options.wait_for_ready, 120.0) if options.wait_for_ready else []
-        if late:
-            player.get_logger().warn(f'playing although {", ".join(late)} did not say ready within 120 s')
-        if options.wait_for_subscribers:
-            topic, count = options.wait_for_subscribers
-            if not player.wait_for_subscribers(topic, int(count), 30.0):
-                player.get_logger().warn(f'playing although {topic} has fewer than {count} subscribers after 30 s')
-        time.sleep(max(options.delay, 0.0))
-        if options.start_paused:
-            player.playing.clear()
-            player.get_logger().info('paused: call ~/resume to play')
-        while True:
-            player.play_once(options.start_offset)
-            if not options.loop:
-                break
-        player.finish()
-        player.get_logger().info(f'played {player.published} messages from {bag}')
-    except (AnyReaderError, ReaderError, BagError, ValueError, OSError) as err:
-        print(f'bag_play: error: {err}', file=sys.stderr)
-        code = 1
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if executor is not None:
-            executor.shutdown(timeout_sec=5.0)
-        if spinner is not None:
-            spinner.join(timeout=5.0)
-        if player is not None:
-            player.destroy_node()
-        shutdown()
+    with stop_on_signals(interrupt=True) as stop:
+        try:
+            player = BagPlayer(
+                bag, rate=options.rate, topics=options.topics, remaps=_parse_remaps(options.remap), clock=options.clock
+            )
+            # Services (pause / resume) are served while the main thread publishes.
+            executor = SingleThreadedExecutor()
+            executor.add_node(player)
+            spinner = threading.Thread(target=spin_until, args=(executor, stop), daemon=True)
+            spinner.start()
+            late = player.wait_for_ready(options.wait_for_ready, 120.0) if options.wait_for_ready else []
+            if late:
+                player.get_logger().warn(f'playing although {", ".join(late)} did not say ready within 120 s')
+            if options.wait_for_subscribers:
+                topic, count = options.wait_for_subscribers
+                if not player.wait_for_subscribers(topic, int(count), 30.0):
+                    player.get_logger().warn(f'playing although {topic} has fewer than {count} subscribers after 30 s')
+            time.sleep(max(options.delay, 0.0))
+            if options.start_paused:
+                player.playing.clear()
+                player.get_logger().info('paused: call ~/resume to play')
+            while True:
+                player.play_once(options.start_offset)
+                if not options.loop:
+                    break
+            player.finish()
+            player.get_logger().info(f'played {player.published} messages from {bag}')
+        except (AnyReaderError, ReaderError, BagError, ValueError, OSError) as err:
+            print(f'bag_play: error: {err}', file=sys.stderr)
+            code = 1
+        except (KeyboardInterrupt, ExternalShutdownException):
+            pass
+        finally:
+            stop.set()
+            if spinner is not None:
+                spinner.join()
+            if executor is not None:
+                executor.shutdown()
+            if player is not None:
+                player.destroy_node()
+            shutdown()
     return code
 
 

@@ -47,8 +47,11 @@ from human_tracker.ros.common import (
     declare,
     diagnostic_status,
     image_qos,
+    init_without_signal_handlers,
     publish_diagnostics,
     shutdown,
+    spin_until,
+    stop_on_signals,
 )
 from human_tracker.ros.image_conversion import ImageConversionError, message_to_bgr8
 from human_tracker.threads import default_threads, use_threads
@@ -174,6 +177,8 @@ class ImageStage(LifecycleNode):
     def _become_ready(self) -> None:
         self._ready_timer.cancel()
         self.destroy_timer(self._ready_timer)
+        # A first run compiles for tens of seconds: say why the node is not ready yet.
+        self.get_logger().info('warming up: compiling and running the kernels once')
         start = time.perf_counter()
         self.warm_up()
         self.ready = True
@@ -384,51 +389,50 @@ def run_nodes(
     name: str = 'node',
     run: Callable[[list[Node]], None] | None = None,
 ) -> int:
-    """Init rclpy, build the nodes, run them until shutdown; return the exit code.
+    """Init rclpy, build the nodes, run them until SIGINT or SIGTERM; return the exit code.
 
-    By default the nodes are spun. With ``run``, ``run(nodes)`` works in this thread while
-    they are spun in another (their timers, services and parameters keep answering).
+    By default the nodes are spun in this thread. With ``run``, ``run(nodes)`` works in this
+    thread while they are spun in another (their timers, services and parameters keep
+    answering) until it returns.
 
-    A ValueError or an rclpy parameter error while building or running (a parameter out of
-    range or of the wrong type, a missing file) is logged with its reason and gives exit code
-    2, with no traceback. Ctrl-C, even while the nodes are being built, exits with 0.
+    A signal stops the spinning between two callbacks (see
+    :func:`~human_tracker.ros.common.stop_on_signals`); the nodes are then destroyed and rclpy
+    shut down here, in order. A ValueError or an rclpy parameter error while building or
+    running (a parameter out of range or of the wrong type, a missing file) is logged with its
+    reason and gives exit code 2, with no traceback. Ctrl-C exits with 0.
     """
-    rclpy.init(args=args)
+    init_without_signal_handlers(args)
     nodes: list[Node] = []
     executor = SingleThreadedExecutor()
     spinner: threading.Thread | None = None
     code = 0
-    try:
-        nodes = build()
-        for node in nodes:
-            executor.add_node(node)
-        if run is not None:
-            spinner = threading.Thread(target=executor.spin)
-            spinner.start()
-            run(nodes)
-        else:
-            executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except (ValueError, ParameterException) as err:
-        rclpy.logging.get_logger(name).error(f'cannot start: {err}')
-        code = 2
-    except Exception:
-        if rclpy.ok():
-            raise
-        # Ctrl-C while the nodes were still being built: rclpy's signal handler shut the
-        # context down under them, and their next call failed. That is a clean stop.
-    finally:
-        if spinner is not None:
-            # The spinning thread must end before its nodes and the context go away.
-            executor.shutdown(timeout_sec=5.0)
-            spinner.join(timeout=5.0)
-        # The order of rclpy.spin: detach the nodes from the executor before destroying them.
-        for node in nodes:
-            executor.remove_node(node)
-            node.destroy_node()
-        executor.shutdown()
-        shutdown()
+    with stop_on_signals(interrupt=run is not None) as stop:
+        try:
+            nodes = build()
+            for node in nodes:
+                executor.add_node(node)
+            if run is None:
+                spin_until(executor, stop)
+            else:
+                spinner = threading.Thread(target=spin_until, args=(executor, stop))
+                spinner.start()
+                run(nodes)
+        except (KeyboardInterrupt, ExternalShutdownException):
+            pass
+        except (ValueError, ParameterException) as err:
+            rclpy.logging.get_logger(name).error(f'cannot start: {err}')
+            code = 2
+        finally:
+            stop.set()
+            if spinner is not None:
+                # The spinning thread must end before its nodes and the context go away.
+                spinner.join()
+            # The order of rclpy.spin: detach the nodes from the executor before destroying them.
+            for node in nodes:
+                executor.remove_node(node)
+                node.destroy_node()
+            executor.shutdown()
+            shutdown()
     return code
 
 

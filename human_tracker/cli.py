@@ -14,6 +14,10 @@ from human_tracker.io.sequences import SequenceError
 
 __all__ = ['main']
 
+_MERGE_DISTANCE_HELP = (
+    'skin cells: adjacent candidate cells join one region only when their mean (I2, I3) lie within D '
+    '(default 0: any, the paper); 10 keeps a hand apart from a skin-coloured surface of another shade'
+)
 _COLOUR_BLUR_HELP = (
     'skin labels: Gaussian smoothing of the colours before they are read, sigma in pixels '
     '(default 0: none; 1 helps a compressed camera, docs/evaluation.md)'
@@ -67,7 +71,7 @@ def _track(options: argparse.Namespace) -> int:
         max_people=options.max_people,
         cue=options.cue,
         skin=options.skin,
-        skin_parameters=SkinParameters(colour_blur=options.colour_blur),
+        skin_parameters=SkinParameters(colour_blur=options.colour_blur, merge_distance=options.merge_distance),
         template_file=options.template or '',
         filter_parameters=TrackerParameters(num_particles=options.particles, seed=options.seed),
         working_width=options.working_width,
@@ -176,7 +180,10 @@ def _skin(options: argparse.Namespace) -> int:
 
     source = open_frames(options.input)
     model = SkinModel.load(options.model) if options.model else default_skin_model()
-    segmenter = SkinSegmenter(model, SkinParameters(colour_blur=options.colour_blur, regions=options.regions))
+    parameters = SkinParameters(
+        colour_blur=options.colour_blur, regions=options.regions, merge_distance=options.merge_distance
+    )
+    segmenter = SkinSegmenter(model, parameters)
     options.out.mkdir(parents=True, exist_ok=True)
     written, unreadable, grey = 0, [], 0
     labelled = 0.0
@@ -275,6 +282,7 @@ def main(argv: list[str] | None = None) -> int:
         metavar='SIGMA',
         help=_COLOUR_BLUR_HELP,
     )
+    track.add_argument('--merge-distance', type=float, default=0.0, metavar='D', help=_MERGE_DISTANCE_HELP)
     track.add_argument('--template', help='JSON template file replacing the built-in one')
     track.add_argument('--particles', type=int, default=500)
     track.add_argument('--seed', type=int, default=0)
@@ -349,6 +357,7 @@ def main(argv: list[str] | None = None) -> int:
         metavar='SIGMA',
         help=_COLOUR_BLUR_HELP,
     )
+    skin.add_argument('--merge-distance', type=float, default=0.0, metavar='D', help=_MERGE_DISTANCE_HELP)
     skin.add_argument(
         '--working-width',
         type=int,

@@ -56,6 +56,12 @@ SKIN_PARAMETERS = (
     ParameterSpec('match_scale', "Multiplies the model's match distance (> 1: more permissive).", 0.01, 100.0),
     ParameterSpec('split_mixed', 'Split a refused cluster in two in (I2, I3); label the part a class accepts 128.'),
     ParameterSpec('min_mixed_pixels', 'Smallest refused cluster that is split, pixels.', 1, 10_000_000),
+    ParameterSpec(
+        'merge_distance',
+        'Adjacent candidate cells join one region only within this (I2, I3) distance; 0: any (the paper).',
+        0.0,
+        1000.0,
+    ),
 )
 
 

@@ -54,6 +54,7 @@ __all__ = [
     'SkinParameters',
     'SkinSegmenter',
     'candidate_cells',
+    'cell_chroma',
     'hysteresis_regions',
     'default_skin_model',
     'has_colour',
@@ -352,6 +353,11 @@ class SkinParameters:
             cluster holds the skin and the jacket, too spread for a class, and neither is
             labelled (hand2, frames 140-163: no skin, so the hand was lost on every run).
         min_mixed_pixels: Smallest mixed cluster that is split, camera pixels.
+        merge_distance: With ``cells``, two adjacent candidate cells join one region only when
+            their mean (I2, I3) lie within this distance of each other (0: any two adjacent
+            cells, the paper). A hand before a skin-coloured surface of another shade then
+            makes a region, and clusters, of its own instead of one mixed cluster with the
+            surface (opt-in: docs/evaluation.md).
     """
 
     max_exposure_gain: float = MAX_EXPOSURE_GAIN
@@ -371,6 +377,7 @@ class SkinParameters:
     match_scale: float = 1.5
     split_mixed: bool = True
     min_mixed_pixels: int = 64
+    merge_distance: float = 0.0
 
     def validate(self) -> None:
         """Raise ValueError naming the first parameter out of its range."""
@@ -393,6 +400,7 @@ class SkinParameters:
             (self.variance_ratio > 0, f'variance_ratio must be > 0, got {self.variance_ratio}'),
             (self.match_scale > 0, f'match_scale must be > 0, got {self.match_scale}'),
             (self.min_mixed_pixels >= 1, f'min_mixed_pixels must be >= 1, got {self.min_mixed_pixels}'),
+            (self.merge_distance >= 0, f'merge_distance must be >= 0, got {self.merge_distance}'),
         ]
         for ok, message in checks:
             if not ok:
@@ -423,14 +431,20 @@ def candidate_cells(image: np.ndarray, model: SkinModel, cell_size: int, match_s
     Returns:
         ``(H // cell_size, W // cell_size) bool``, True for candidate skin cells.
     """
+    return model.distance(cell_chroma(image, cell_size)) <= model.match_distance * match_scale
+
+
+def cell_chroma(image: np.ndarray, cell_size: int) -> np.ndarray:
+    """``(H // cell_size, W // cell_size, 2)`` mean (I2, I3) of each cell of a BGR image; a
+    partial last row / column of cells is ignored."""
     rows, cols = image.shape[0] // cell_size, image.shape[1] // cell_size
     if rows == 0 or cols == 0:
-        return np.zeros((rows, cols), dtype=bool)
+        return np.zeros((rows, cols, 2), dtype=np.float32)
     cropped = np.asarray(image[: rows * cell_size, : cols * cell_size], dtype=np.float32)
     # I1 I2 I3 are linear in B, G, R, so the cell's mean chromaticity is that of its mean
     # colour; area interpolation by a whole factor is the mean of each cell.
     means = cv2.resize(cropped, (cols, rows), interpolation=cv2.INTER_AREA).reshape(rows, cols, 3)
-    return model.distance(ohta(means)[..., 1:]) <= model.match_distance * match_scale
+    return ohta(means)[..., 1:]
 
 
 def hysteresis_regions(
@@ -479,23 +493,71 @@ def _distance_levels(image: np.ndarray, table: np.ndarray, seed: float, grow: fl
     return levels
 
 
-def merge_cells(candidates: np.ndarray, min_region_cells: int = 1) -> tuple[np.ndarray, int]:
+def merge_cells(
+    candidates: np.ndarray, min_region_cells: int = 1, chroma: np.ndarray | None = None, max_distance: float = 0.0
+) -> tuple[np.ndarray, int]:
     """Phase 1b: merge adjacent candidate cells (8-connected) into regions.
 
     Args:
         candidates: ``(R, C) bool`` candidate cells.
         min_region_cells: Regions with fewer cells are dropped.
+        chroma: ``(R, C, 2)`` the cells' mean (I2, I3) (:func:`cell_chroma`), with ``max_distance``.
+        max_distance: > 0: two adjacent cells join only when their ``chroma`` lie within it.
 
     Returns:
         ``(R, C) int32`` labels (0: no region, 1..n: regions) and n.
     """
-    count, labels = cv2.connectedComponents(candidates.astype(np.uint8), connectivity=8)
+    if max_distance > 0 and chroma is not None:
+        labels = _similar_components(candidates, np.asarray(chroma, dtype=np.float64), max_distance**2)
+        count = int(labels.max()) + 1
+    else:
+        count, labels = cv2.connectedComponents(candidates.astype(np.uint8), connectivity=8)
     sizes = np.bincount(labels.ravel(), minlength=count)
     keep = sizes >= min_region_cells
     keep[0] = False
     relabel = np.zeros(count, dtype=np.int32)
     relabel[keep] = np.arange(1, np.count_nonzero(keep) + 1, dtype=np.int32)
     return relabel[labels], int(np.count_nonzero(keep))
+
+
+@numba.njit(cache=True, nogil=True)
+def _root(parent: np.ndarray, i: int) -> int:
+    while parent[i] != i:
+        parent[i] = parent[parent[i]]
+        i = parent[i]
+    return i
+
+
+@numba.njit(cache=True, nogil=True)
+def _similar_components(candidates: np.ndarray, chroma: np.ndarray, max_squared: float) -> np.ndarray:
+    """``(R, C) int32`` labels (0 outside, 1..n) of the 8-connected candidate cells, two
+    neighbours joined only when their chroma lie within ``sqrt(max_squared)`` (union-find)."""
+    rows, cols = candidates.shape
+    parent = np.arange(rows * cols)
+    for v in range(rows):
+        for u in range(cols):
+            if not candidates[v, u]:
+                continue
+            # Each pair once: the right neighbour and the three below.
+            for dv, du in ((0, 1), (1, -1), (1, 0), (1, 1)):
+                y, x = v + dv, u + du
+                if y < rows and 0 <= x < cols and candidates[y, x]:
+                    d2 = (chroma[v, u, 0] - chroma[y, x, 0]) ** 2 + (chroma[v, u, 1] - chroma[y, x, 1]) ** 2
+                    if d2 <= max_squared:
+                        a, b = _root(parent, v * cols + u), _root(parent, y * cols + x)
+                        parent[max(a, b)] = min(a, b)
+    labels = np.zeros((rows, cols), np.int32)
+    names = np.zeros(rows * cols, np.int32)
+    count = 0
+    for v in range(rows):
+        for u in range(cols):
+            if candidates[v, u]:
+                r = _root(parent, v * cols + u)
+                if names[r] == 0:
+                    count += 1
+                    names[r] = count
+                labels[v, u] = names[r]
+    return labels
 
 
 def histogram_modes(
@@ -764,7 +826,9 @@ def segment_skin(
         # to judge their borders too lost recall and gained no precision).
         labels, _ = hysteresis_regions(image, model, p.seed_scale, p.grow_scale)
         return (labels > 0).astype(np.uint8) * 255
-    cells, count = merge_cells(candidate_cells(image, model, p.cell_size, p.match_scale), p.min_region_cells)
+    chroma = cell_chroma(image, p.cell_size)
+    candidates = model.distance(chroma) <= model.match_distance * p.match_scale
+    cells, count = merge_cells(candidates, p.min_region_cells, chroma, p.merge_distance)
     if count == 0:
         return np.zeros((height, width), dtype=np.uint8)
     # Each region grows by one cell (the dilation keeps the larger label where two meet) so

@@ -115,6 +115,8 @@ def test_merge_cells_keeps_apart_neighbours_of_different_colour() -> None:
     assert labels[0, 2] == labels[0, 3] == labels[1, 2] == labels[1, 3] != 0
     assert merge_cells(candidates, chroma=chroma, max_distance=12.5)[1] == 1
     assert merge_cells(candidates, chroma=chroma)[1] == 1  # no distance: the paper's adjacency
+    tiny = np.zeros((5, 5, 3), np.uint8)  # smaller than a cell: no cell, no region
+    assert not segment_skin(tiny, default_skin_model(), SkinParameters(merge_distance=10.0)).any()
 
 
 def test_a_waving_hand_is_its_own_skin_region_beside_a_skin_coloured_square() -> None:

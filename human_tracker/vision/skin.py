@@ -509,7 +509,7 @@ def merge_cells(
     """
     if max_distance > 0 and chroma is not None:
         labels = _similar_components(candidates, np.asarray(chroma, dtype=np.float64), max_distance**2)
-        count = int(labels.max()) + 1
+        count = int(labels.max(initial=0)) + 1
     else:
         count, labels = cv2.connectedComponents(candidates.astype(np.uint8), connectivity=8)
     sizes = np.bincount(labels.ravel(), minlength=count)

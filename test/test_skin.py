@@ -24,6 +24,7 @@ from human_tracker.vision.skin import (
     SkinParameters,
     SkinSegmenter,
     candidate_cells,
+    cell_chroma,
     default_skin_model,
     has_colour,
     histogram_modes,
@@ -80,10 +81,10 @@ def test_candidate_cells_use_the_cell_mean() -> None:
     # Cell (1, 2): red ± 10 column by column (I2 ± 5), so only the mean is skin.
     image[2:, 4:] = [[(95, 135, 190), (95, 135, 210)]] * 2
     model = _one_class((52.5, -6.25))
-    cells = candidate_cells(image, model, cell_size=2)
+    cells = candidate_cells(cell_chroma(image, cell_size=2), model)
     np.testing.assert_array_equal(cells, [[True, False, False], [False, False, True]])
     # A partial last column of cells is ignored: 7 columns still make 3 cells.
-    assert candidate_cells(np.zeros((4, 7, 3), np.uint8), model, cell_size=2).shape == (2, 3)
+    assert candidate_cells(cell_chroma(np.zeros((4, 7, 3), np.uint8), cell_size=2), model).shape == (2, 3)
 
 
 def test_merge_cells_through_the_adjacency_graph() -> None:

@@ -419,24 +419,23 @@ class SkinParameters:
         )
 
 
-def candidate_cells(image: np.ndarray, model: SkinModel, cell_size: int, match_scale: float = 1.0) -> np.ndarray:
+def candidate_cells(chroma: np.ndarray, model: SkinModel, match_scale: float = 1.0) -> np.ndarray:
     """Phase 1a: cells whose mean (I2, I3) lies within the skin classes.
 
     Args:
-        image: ``(H, W, 3)`` BGR image.
+        chroma: ``(R, C, 2)`` the cells' mean (I2, I3) (:func:`cell_chroma`).
         model: The skin classes.
-        cell_size: Cell side, pixels; a partial last row / column of cells is ignored.
         match_scale: Multiplies ``model.match_distance``.
 
     Returns:
-        ``(H // cell_size, W // cell_size) bool``, True for candidate skin cells.
+        ``(R, C) bool``, True for candidate skin cells.
     """
-    return model.distance(cell_chroma(image, cell_size)) <= model.match_distance * match_scale
+    return model.distance(chroma) <= model.match_distance * match_scale
 
 
 def cell_chroma(image: np.ndarray, cell_size: int) -> np.ndarray:
-    """``(H // cell_size, W // cell_size, 2)`` mean (I2, I3) of each cell of a BGR image; a
-    partial last row / column of cells is ignored."""
+    """``(H // cell_size, W // cell_size, 2)`` mean (I2, I3) of each ``cell_size`` square cell
+    of a BGR image (phase 1's partition); a partial last row / column of cells is ignored."""
     rows, cols = image.shape[0] // cell_size, image.shape[1] // cell_size
     if rows == 0 or cols == 0:
         return np.zeros((rows, cols, 2), dtype=np.float32)
@@ -827,8 +826,9 @@ def segment_skin(
         labels, _ = hysteresis_regions(image, model, p.seed_scale, p.grow_scale)
         return (labels > 0).astype(np.uint8) * 255
     chroma = cell_chroma(image, p.cell_size)
-    candidates = model.distance(chroma) <= model.match_distance * p.match_scale
-    cells, count = merge_cells(candidates, p.min_region_cells, chroma, p.merge_distance)
+    cells, count = merge_cells(
+        candidate_cells(chroma, model, p.match_scale), p.min_region_cells, chroma, p.merge_distance
+    )
     if count == 0:
         return np.zeros((height, width), dtype=np.uint8)
     # Each region grows by one cell (the dilation keeps the larger label where two meet) so

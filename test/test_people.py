@@ -21,7 +21,7 @@ from human_tracker.vision.boxes import box_centre, centre_within
 from human_tracker.vision.faces import FACE_ON_HEAD, Detection
 from human_tracker.vision.people import SAME_REGION, PersonTracker, kinds_of
 from human_tracker.vision.resolution import to_working
-from human_tracker.vision.skin import SkinSegmenter, default_skin_model
+from human_tracker.vision.skin import SkinParameters, SkinSegmenter, default_skin_model
 from human_tracker.vision.target import (
     FRESH_FACE_FRAMES,
     SharedFrames,
@@ -264,10 +264,16 @@ def test_track_a_person_offline(tmp_path, capsys) -> None:
     head_ids = {r['id'] for r in rows if r['kind'] == 'head' and r['id']}
     hand_ids = {r['id'] for r in rows if r['kind'] == 'hand' and r['id']}
     assert head_ids and hand_ids and not head_ids & hand_ids
-    # Each row names the shape the target is drawn in: the bag's hand is open.
-    hand_shapes = [r['shape'] for r in rows if r['kind'] == 'hand' and r['status'] == 'TRACKING']
+    # Each row names the shape the target is drawn in: the bag's hand is open. In front of the
+    # skin-coloured furniture (frames 64-80) its labels join the furniture's, which the closed
+    # hand's contour fits as well (on 0-16 of those frames, seeds 0-9).
+    hand_shapes = [
+        r['shape']
+        for r in rows
+        if r['kind'] == 'hand' and r['status'] == 'TRACKING' and not 64 <= int(r['frame']) <= 80
+    ]
     assert {r['shape'] for r in rows if r['kind'] == 'head' and r['shape']} == {'head_and_shoulders'}
-    assert hand_shapes.count('open_hand') > 0.9 * len(hand_shapes)
+    assert hand_shapes.count('open_hand') > 0.95 * len(hand_shapes)
     assert summary['scored_kind'] == 'hand' and summary['precision_20px'] >= 0.95
     assert summary['targets']['head']['longest_id_share'] >= 0.9
     assert json.loads((tmp_path / 'summary.json').read_text())['targets'] == summary['targets']
@@ -413,3 +419,24 @@ def test_a_persons_hands_reduce_the_frame_once() -> None:
     alone = TargetTracker(open_hand(), parameters=parameters_for('hand')).working_frame(image)
     assert all(np.array_equal(a, b) for a, b in zip(alone[:3], frames[2][:3], strict=True))
     assert frames[2].bins is None and frames[0].edges.shape == frames[2].edges.shape
+
+
+def test_a_held_id_comes_back_only_to_its_own_slot_where_it_may_take_up(tmp_path) -> None:
+    """people_crossing with two people, seed 9, skin cells merged by colour: the waving hand is
+    lost in front of the walker's face (frame 62) and its filter settles on a skin-coloured
+    square below the walker's head, which is not its person's to take up, even under the id
+    held for it (it was: an identity switch, the hand 0.393); when the hand comes out, the
+    walker's hand slot, which finds it first, leaves it to the slot holding its id."""
+    options = TrackOptions(
+        max_people=2,
+        filter_parameters=TrackerParameters(seed=9),
+        skin_parameters=SkinParameters(merge_distance=10.0),
+        video=False,
+        progress=False,
+    )
+    summary = track_sequence(BAGS / 'people_crossing', tmp_path, options)
+    print(summary['tracks'], summary['all_tracks'])
+    assert summary['all_tracks']['id_switches'] == 0 and summary['all_tracks']['idf1'] >= 0.9
+    assert summary['tracks']['person_1/hand']['precision_20px'] >= 0.7
+    hands = {r['id'] for r in csv.DictReader((tmp_path / 'poses.csv').open()) if r['target'] == 'hand' and r['id']}
+    assert len(hands) == 1  # one id for the waving hand from its first frame to its last

@@ -41,8 +41,14 @@ person) it gets a new id, never reused while the tracker lives. A target LOST re
 but its id is held for ``id_hold_frames``: taken up again within ``HOLD_REACH`` widths of
 where it was last followed, it is the same target come out from behind something (a hand
 passing behind the walker's head on people_crossing, LOST for 6 frames), and gets its id
-back; the occupancy rule, a jump or a slot's turn ending retires it at once. A consumer that
-sees the same id on two frames sees the same target.
+back; the occupancy rule, a jump or a slot's turn ending retires it at once. A held target is
+taken up by its own slot only, and only where that slot may take up a target at all: a hand
+lost in front of the walker's face, whose filter settled on a skin-coloured square below the
+walker's head, took its id back there (people_crossing with two people and skin cells
+merged by colour, seed 9: the hand 0.393, an identity switch); refused there, the slot holds
+the id until the hand comes out, and the walker's hand slot, which took it up then, leaves
+it to the slot holding it (0.760, no switch). A consumer that sees the same id on two
+frames sees the same target.
 """
 
 from __future__ import annotations
@@ -319,12 +325,11 @@ class PersonTracker:
         if result.tracking and self._jumped(slot, result):
             slot.id = 0  # another target now: the one followed is gone
         if result.tracking and slot.id == 0:
-            state, held = result.estimate.state, slot.held_state
-            if held is not None and float(np.hypot(*(state[:2] - held[:2]))) <= HOLD_REACH * held[2]:
-                slot.id = slot.held_id
-            elif not self._may_take_up(slot, result):
+            if not self._may_take_up(slot, result):
                 slot.tracker.mark_lost()
                 result = replace(result, status=LOST)
+            elif _holds(slot, result.estimate.state):
+                slot.id = slot.held_id
             else:
                 self.last_id += 1
                 slot.id = self.last_id
@@ -348,7 +353,11 @@ class PersonTracker:
         with a face found on it (taken up on the moving region, one settled on the first
         person's waving fingers before the second person came in); a hand only where its own
         person's head is the nearest above it (the walker's slot, whose hands are out of view,
-        took the waving hand of the person behind: theirs to take up)."""
+        took the waving hand of the person behind: theirs to take up); neither where another
+        slot of its kind holds an id for a target lost there (:func:`_holds`)."""
+        state = result.estimate.state
+        if any(other is not slot and other.kind == slot.kind and _holds(other, state) for other in self.slots):
+            return False
         if slot.kind == 'head':
             return slot.person == 1 or slot.tracker.detector is None or slot.tracker.has_fresh_face
         return self._person_above(result.estimate.box) in (None, slot.person)
@@ -442,6 +451,13 @@ class PersonTracker:
         while a face has just been found on it, else None (a head that slid onto the raised arm
         would send the hand to the face): the hand's own detector looks then."""
         return FACE_ON_HEAD.box(result.estimate.state) if result.tracking and head.has_fresh_face else None
+
+
+def _holds(slot: Slot, state: np.ndarray) -> bool:
+    """Whether ``slot`` holds an id for a target lost within ``HOLD_REACH`` widths (its scale
+    then) of ``state`` (x, y, scale, θ; camera pixels)."""
+    held = slot.held_state
+    return held is not None and float(np.hypot(*(state[:2] - held[:2]))) <= HOLD_REACH * held[2]
 
 
 def _with_forearm(box: Box) -> Box:

@@ -7,8 +7,9 @@
   the skin labels' precision and recall on the hand bags and hand-labelled real frames;
 - conditions: ours with ``min_target_width`` and without it on real sequences set in frames
   twice as wide and high, with the skin stage's exposure normalisation and without it on
-  ``hand2`` dimmed, and with the particles carried by the camera's motion and without on
-  real sequences shaken (:mod:`~human_tracker.evaluation.conditions`); and two people on the
+  ``hand2`` dimmed, with the particles carried by the camera's motion and without on real
+  sequences shaken, and with slow frames waiting for their own faces and without on real
+  sequences at a third of their rate (:mod:`~human_tracker.evaluation.conditions`); and two people on the
   ``people_crossing`` bag, seed by seed (:mod:`~human_tracker.evaluation.several_people`);
 - latency: end-to-end over DDS, described below.
 
@@ -510,8 +511,10 @@ def main(argv: list[str] | None = None) -> int:
         from human_tracker.evaluation.conditions import (
             DIM_BRIGHTNESS,
             SHAKE_MARGIN,
+            SLOW_STEP,
             dim_light_rows,
             shaken_camera_rows,
+            slow_camera_rows,
             small_target_rows,
         )
         from human_tracker.evaluation.several_people import two_people_rows
@@ -520,11 +523,13 @@ def main(argv: list[str] | None = None) -> int:
             'small': 'small targets in wide frames (real sequences in frames twice as wide and high)',
             'dim': f'dim light (the real hand at {DIM_BRIGHTNESS:g} of its brightness)',
             'shake': f'a shaking camera (real sequences cropped {SHAKE_MARGIN} px in, the crop jolting)',
+            'slow': f'a slow camera (real sequences, one frame in {SLOW_STEP})',
             'people': 'two people (people_crossing as a person, --max-people 2), seed by seed',
         }
         results['small'] = small_target_rows(options.real_data, options.out / 'conditions')
         results['dim'] = dim_light_rows(options.real_data, options.out / 'conditions')
         results['shake'] = shaken_camera_rows(options.real_data, options.out / 'conditions')
+        results['slow'] = slow_camera_rows(options.real_data, options.out / 'conditions')
         results['people'] = two_people_rows(Path('bags/people_crossing'), options.out / 'conditions' / 'people')
         for name, title in titles.items():
             if results[name]:

@@ -78,6 +78,7 @@ def _track(options: argparse.Namespace) -> int:
         video=not options.no_video,
         video_every=options.video_every,
         progress=not options.quiet,
+        fps=options.fps,
     )
     summary = track_sequence(options.input, out, settings)
     print(json.dumps(summary, indent=2))
@@ -293,6 +294,11 @@ def main(argv: list[str] | None = None) -> int:
     )
     track.add_argument('--no-video', action='store_true', help='skip the annotated video')
     track.add_argument('--video-every', type=int, default=1, help='write every Nth frame to the video (default 1)')
+    track.add_argument(
+        '--fps',
+        type=float,
+        help="frame rate of a folder of frames or a video, stamping its frames (default: the video's, or 30)",
+    )
     track.add_argument('--quiet', action='store_true', help='no progress bar')
     track.add_argument(
         '--threads',

@@ -102,6 +102,9 @@ class TrackOptions:
         video: Whether to write the annotated video.
         video_every: Write every this many frames to the video (a shorter file; same pace).
         progress: Whether to show a progress bar.
+        fps: The frame rate, Hz, of a folder of frames or a video, which stamps their frames
+            (the tracker's ``detector_wait_interval`` reads the stamps); None: the video's own,
+            or 30. A bag's frames keep their own stamps.
     """
 
     target: str | None = None
@@ -119,6 +122,7 @@ class TrackOptions:
     video: bool = True
     video_every: int = 1
     progress: bool = True
+    fps: float | None = None
 
 
 def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -> dict[str, object]:
@@ -135,9 +139,13 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
         raise ValueError(f'cue must be one of {", ".join(CUES)}, got {options.cue!r}')
     if options.video_every < 1:
         raise ValueError(f'video_every must be >= 1, got {options.video_every}')
+    if options.fps is not None and not options.fps > 0:
+        raise ValueError(f'fps must be > 0, got {options.fps}')
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     sequence = open_sequence(source)
+    if options.fps is not None:
+        sequence.fps = options.fps
     target = options.target or sequence.target or 'head'
     kinds = kinds_of(target, options.hands)
     if len(kinds) > 1 and (options.template_file or options.target_parameters is not None):
@@ -209,7 +217,8 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
                 people.initialise_from_box(options.init, init_kind)
             # The camera's motion the background stage measured, in the camera's pixels.
             shake = background.camera_motion_in(gray.shape[1]) if options.cue == 'background' else None
-            outcomes = people.process(frame.image if frame.image.ndim == 3 else gray, motion, skin, camera_motion=shake)
+            image = frame.image if frame.image.ndim == 3 else gray
+            outcomes = people.process(image, motion, skin, camera_motion=shake, stamp_ns=frame.stamp_ns)
             elapsed += time.perf_counter() - start
             busy += time.process_time() - cpu
             motion_set_aside += outcomes[0].result.motion_set_aside

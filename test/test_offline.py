@@ -14,7 +14,7 @@ import pytest
 from conftest import REAL_DATA
 
 from human_tracker.cli import main
-from human_tracker.evaluation.conditions import SHAKE_MARGIN, dim, shake, widen
+from human_tracker.evaluation.conditions import SHAKE_MARGIN, dim, shake, slow_camera, widen
 from human_tracker.evaluation.metrics import normalised_errors
 from human_tracker.io.bags import read_frames
 from human_tracker.io.sequences import open_sequence, read_groundtruth, write_groundtruth
@@ -257,6 +257,41 @@ def test_a_shaken_sequence_moves_its_boxes_with_its_frames(tmp_path) -> None:
         x, y = int(box[0]), int(box[1])
         assert frame[y : y + 20, x : x + 20].min() == 255 and frame.sum() == 255 * 400 + 40 * (frame.size - 400)
     assert len({box[:2] for box in boxes}) > 1  # it shakes
+
+
+def test_a_slow_camera_keeps_one_frame_in_three_with_its_box_and_stamp(tmp_path) -> None:
+    """Seven frames of a 30 Hz folder, a square moving 10 px a frame: the slow camera's bag holds
+    frames 0, 3 and 6, stamped 0.1 s apart, each with its own box."""
+    folder = tmp_path / 'fast'
+    (folder / 'img').mkdir(parents=True)
+    boxes = []
+    for index in range(7):
+        frame = np.full((120, 160, 3), 40, np.uint8)
+        frame[50:70, 10 * index : 10 * index + 20] = 255
+        cv2.imwrite(str(folder / 'img' / f'{index:03d}.png'), frame)
+        boxes.append((10.0 * index, 50.0, 20.0, 20.0))
+    write_groundtruth(folder / 'groundtruth.txt', boxes)
+    frames = list(open_sequence(slow_camera(folder, tmp_path / 'slow')))
+    assert [f.stamp_ns for f in frames] == [0, 100_000_000, 200_000_000]
+    for frame, index in zip(frames, (0, 3, 6), strict=True):
+        assert frame.ground_truth == pytest.approx(boxes[index])
+        x = 10 * index
+        assert frame.image[50:70, x : x + 20].min() == 255 and frame.image.sum() == 3 * (255 * 400 + 40 * (19200 - 400))
+
+
+def test_a_folder_of_frames_is_stamped_at_the_rate_given(tmp_path) -> None:
+    """``fps`` stamps a folder's frames (30 Hz without it); a rate <= 0 is refused."""
+    folder = tmp_path / 'frames'
+    (folder / 'img').mkdir(parents=True)
+    for index in range(3):
+        cv2.imwrite(str(folder / 'img' / f'{index:03d}.png'), np.full((60, 80, 3), 40 * index, np.uint8))
+    for fps, period in ((None, 1e9 / 30), (10.0, 1e8)):
+        track_sequence(folder, tmp_path / f'out_{fps}', TrackOptions(fps=fps, video=False, progress=False))
+        with open(tmp_path / f'out_{fps}' / 'poses.csv') as file:
+            stamps = [int(row['stamp_ns']) for row in csv.DictReader(file)]
+        assert stamps == [round(k * period) for k in range(3)]
+    with pytest.raises(ValueError, match='fps'):
+        track_sequence(folder, tmp_path / 'bad', TrackOptions(fps=0.0, video=False, progress=False))
 
 
 @pytest.mark.skipif(not (REAL_DATA / 'david_colour').exists(), reason='real sequences absent')

@@ -371,27 +371,35 @@ def test_a_start_box_sits_where_the_start_frames_estimate_puts_the_contour() -> 
     assert abs(np.mean(offsets)) < 3.0
 
 
-@pytest.mark.parametrize('detector_thread', [False, True])
-def test_a_face_on_the_start_frame_relates_the_given_box_to_it(detector_thread: bool) -> None:
+@pytest.mark.parametrize(('detector_thread', 'frame_interval'), [(False, 1 / 30), (True, 1 / 30), (True, 0.1)])
+def test_a_face_on_the_start_frame_relates_the_given_box_to_it(detector_thread: bool, frame_interval: float) -> None:
     """A face found on the frame a box is given on records how that very box sits on the face:
     the same face five frames later gives back the box as given, wherever the contour has moved
     since. In its own thread the detector delivers that face on the next frame, where it is
     related to the box the start frame reported (the given box), and the later face is placed
     by the target's predicted motion and the contour's displacement, which on a still frame are
-    a fraction of a pixel and about a pixel."""
+    a fraction of a pixel and about a pixel. A frame stamped further from the one before than
+    ``detector_wait_interval`` (here 10 Hz: frame 5, not the first) waits for its own run and
+    places its face exactly, as without the thread."""
     (frame, image), *_ = _frames('head_basic')
     given = frame.ground_truth
     face = _face_on_box(given, image)
     tracker = _face_tracker([[face]], detector_thread=detector_thread)
     tracker.initialise_from_box(given)
-    lag = int(detector_thread)
-    results = [tracker.process(image) for _ in range(6 + lag)]
-    assert results[lag].detections and results[5 + lag].detections  # found on frames 0 and 5
+    first_lag = int(detector_thread)
+    lag = int(detector_thread and frame_interval <= tracker.parameters.detector_wait_interval)
+    results = [tracker.process(image, stamp_ns=round(k * frame_interval * 1e9)) for k in range(6 + lag)]
+    assert results[first_lag].detections and results[5 + lag].detections  # found on frames 0 and 5
     if detector_thread:
         assert not results[0].detections  # delivered on the next frame
     assert not np.allclose(results[5 + lag].estimate.state[:3], results[0].estimate.state[:3], atol=0.5)
     assert results[5 + lag].status == 'TRACKING'
-    np.testing.assert_allclose(results[5 + lag].estimate.box, given, atol=1.0 if detector_thread else 1e-6)
+    np.testing.assert_allclose(results[5 + lag].estimate.box, given, atol=1.0 if lag else 1e-6)
+
+
+def test_a_negative_detector_wait_interval_is_refused() -> None:
+    with pytest.raises(ValueError, match='detector_wait_interval'):
+        TargetParameters(detector_wait_interval=-0.1).validate()
 
 
 def test_a_face_delivered_late_keeps_up_with_a_moving_head() -> None:

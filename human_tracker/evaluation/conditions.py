@@ -13,12 +13,17 @@
   head: each frame a crop of the sequence's whose offset follows a random walk, as far as
   :data:`SHAKE_MARGIN` pixels from the middle. Ours runs carrying its particles with the
   camera's motion and without (``compensate_camera``).
+- **A slow camera** (:func:`slow_camera`). A robot's camera at 10 Hz, or a busy tracker that
+  drops two frames of three: every :data:`SLOW_STEP`-th frame, stamped at that rate. Ours runs
+  with frames that far apart waiting for their own face detector run and without
+  (``detector_wait_interval`` 1 s: the faces a frame late).
 
 Each from the first box and without one, over a few seeds.
 """
 
 from __future__ import annotations
 
+import shutil
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
@@ -26,7 +31,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from human_tracker.io.sequences import read_groundtruth, write_groundtruth
+from human_tracker.io.bags import write_bag
+from human_tracker.io.sequences import open_sequence, read_groundtruth, write_groundtruth
 from human_tracker.offline import TrackOptions, track_sequence
 from human_tracker.vision.skin import SkinParameters
 from human_tracker.vision.target import TargetParameters, parameters_for
@@ -37,10 +43,14 @@ __all__ = [
     'SEQUENCES',
     'SHAKEN',
     'SHAKE_MARGIN',
+    'SLOW',
+    'SLOW_STEP',
     'dim',
     'dim_light_rows',
     'shake',
     'shaken_camera_rows',
+    'slow_camera',
+    'slow_camera_rows',
     'small_target_rows',
     'widen',
 ]
@@ -59,6 +69,12 @@ SHAKEN = {'hand2': 'hand', 'david_colour': 'head', 'interview_alberto': 'head'}
 SHAKE_MARGIN = 20
 SHAKE_STEP = 6.0
 SHAKE_MEMORY = 0.7
+# The sequences a slow camera sees and their targets: the heads that move most from frame to
+# frame (a person walking across, a camera that pans) and the real hand.
+SLOW = {'sunshade': 'head', 'david_colour': 'head', 'trellis': 'head', 'hand2': 'hand'}
+# Every this many frames of a 30 Hz sequence: a 10 Hz camera.
+SLOW_STEP = 3
+SEQUENCE_RATE = 30.0
 
 
 def widen(sequence: Path, out: Path) -> Path:
@@ -115,6 +131,22 @@ def shake(sequence: Path, out: Path, seed: int = 7) -> Path:
     return out
 
 
+def slow_camera(sequence: Path, out: Path, step: int = SLOW_STEP) -> Path:
+    """Every ``step``-th frame of ``sequence`` (a folder with ``img/`` and ``groundtruth.txt``,
+    taken at :data:`SEQUENCE_RATE`) with its box, recorded as a bag of raw frames stamped at
+    ``SEQUENCE_RATE / step`` Hz; returns ``out`` (replaced if it exists)."""
+    if out.exists():
+        shutil.rmtree(out)
+    paths = sorted(p for p in (sequence / 'img').iterdir() if p.is_file())[::step]
+    boxes = read_groundtruth(sequence / 'groundtruth.txt')[::step]
+    period_ns = round(step * 1e9 / SEQUENCE_RATE)
+    frames = (
+        (index * period_ns, cv2.imread(str(path), cv2.IMREAD_COLOR), box)
+        for index, (path, box) in enumerate(zip(paths, boxes, strict=False))
+    )
+    return write_bag(out, frames, compressed=False, target='hand' if 'hand' in sequence.name else 'head')
+
+
 def small_target_rows(real_data: Path, out: Path, seeds: tuple[int, ...] = (0, 1, 2)) -> list[dict[str, object]]:
     """Precision at 20 px (mean, min, max over ``seeds``) and the worst confident-wrong share of
     ours on each of :data:`SEQUENCES` widened, with ``min_target_width`` and without, from the
@@ -140,6 +172,14 @@ def shaken_camera_rows(real_data: Path, out: Path, seeds: tuple[int, ...] = (0, 
     return _with_and_without(real_data, out, SHAKEN, shake, 'shaken', 'compensate_camera', False, seeds)
 
 
+def slow_camera_rows(real_data: Path, out: Path, seeds: tuple[int, ...] = (0, 1, 2)) -> list[dict[str, object]]:
+    """As :func:`small_target_rows`, for :data:`SLOW` at a third of their frame rate
+    (:func:`slow_camera`), frames that far apart waiting for their own face detector run and
+    not (``detector_wait_interval`` 1 s)."""
+    rate = f'{SEQUENCE_RATE / SLOW_STEP:g} Hz'
+    return _with_and_without(real_data, out, SLOW, slow_camera, f'at {rate}', 'detector_wait_interval', 1.0, seeds)
+
+
 def _with_and_without(
     real_data: Path,
     out: Path,
@@ -157,13 +197,14 @@ def _with_and_without(
     for name, target in sequences.items():
         if not (real_data / name / 'img').is_dir():
             continue
-        folder = rewrite(real_data / name, out / f'{name}_{label}')
+        folder = rewrite(real_data / name, out / f'{name}_{label}'.replace(' ', '_'))
         parameters = parameters_for(target)
         values = {
             float(getattr(parameters, setting)): (parameters, SkinParameters()),
             float(off): (replace(parameters, **{setting: off}), SkinParameters()),
         }
-        rows += _rows(folder, f'{name} {label}', target, setting, values, seeds, out / f'{name}_{label}_runs')
+        runs = folder.with_name(f'{folder.name}_runs')
+        rows += _rows(folder, f'{name} {label}', target, setting, values, seeds, runs)
     return rows
 
 
@@ -178,7 +219,7 @@ def _rows(
 ) -> list[dict[str, object]]:
     """One row per value of ``setting`` (``values``: the parameters each gives) and start (the
     first box, none): precision at 20 px over ``seeds`` and the worst confident-wrong share."""
-    first = read_groundtruth(folder / 'groundtruth.txt')[0]
+    first = next(iter(open_sequence(folder))).ground_truth
     rows = []
     for value, (parameters, skin) in values.items():
         for init in (first, None):

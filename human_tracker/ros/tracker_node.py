@@ -121,6 +121,12 @@ TARGET_PARAMETERS = (
     ParameterSpec('face_search_reach', 'Face sizes around the predicted face the detector looks within.', 0.5, 10.0),
     ParameterSpec('detector_thread', 'Face detector in its own thread; its faces serve the next frame.', runtime=False),
     ParameterSpec(
+        'detector_wait_interval',
+        'Seconds between frames above which a frame waits for its own face detector run (a slow camera).',
+        0.0,
+        3600.0,
+    ),
+    ParameterSpec(
         'compensate_camera', "Carry the particles with the camera's shake (as the background stage measures it)."
     ),
     ParameterSpec('estimate_camera_motion', "Without a background stage in process, measure the camera's motion here."),
@@ -610,7 +616,7 @@ class TrackerNode(ImageStage):
                 self.init_box = None
                 self.start_problem = f'init_box ignored: {err}'
                 self.get_logger().error(self.start_problem)
-        outcomes = self.people.process(image, motion, skin, shared, camera_motion)
+        outcomes = self.people.process(image, motion, skin, shared, camera_motion, stamp_ns=stamp)
         result = outcomes[0].result
         self.last_result, self.last_outcomes = result, outcomes
         self.status_header = header

@@ -258,6 +258,7 @@ class PersonTracker:
         skin: np.ndarray | None = None,
         shared: SharedFrames | None = None,
         camera_motion: np.ndarray | None = None,
+        stamp_ns: int | None = None,
     ) -> list[TrackedTarget]:
         """Track every target on one frame (arguments as :meth:`TargetTracker.process`; beside a
         hand, the skin labels go to the hands only: a head-and-shoulders outline is not skin).
@@ -292,7 +293,13 @@ class PersonTracker:
                 # Identified before the hands look: a head this slot may not take up (a later
                 # person's without a face) is LOST, no one's face to hand over or keep off.
                 found = tracker.process(
-                    image, motion, single, exclude=exclude, shared=shared, camera_motion=camera_motion
+                    image,
+                    motion,
+                    single,
+                    exclude=exclude,
+                    shared=shared,
+                    camera_motion=camera_motion,
+                    stamp_ns=stamp_ns,
                 )
                 result = self._identify(slot, found)
                 if self.hands_handed_faces:
@@ -313,6 +320,7 @@ class PersonTracker:
                     avoid=avoid,
                     shared=shared,
                     camera_motion=camera_motion,
+                    stamp_ns=stamp_ns,
                 )
                 result = self._identify(slot, found)
             ran.append((slot, result))

@@ -26,6 +26,7 @@ from __future__ import annotations
 import shutil
 from collections.abc import Callable
 from dataclasses import replace
+from itertools import islice
 from pathlib import Path
 
 import cv2
@@ -74,6 +75,7 @@ SHAKE_MEMORY = 0.7
 SLOW = {'sunshade': 'head', 'david_colour': 'head', 'trellis': 'head', 'hand2': 'hand'}
 # Every this many frames of a 30 Hz sequence: a 10 Hz camera.
 SLOW_STEP = 3
+# A folder of frames' nominal rate (its frames' stamps).
 SEQUENCE_RATE = 30.0
 
 
@@ -133,17 +135,12 @@ def shake(sequence: Path, out: Path, seed: int = 7) -> Path:
 
 def slow_camera(sequence: Path, out: Path, step: int = SLOW_STEP) -> Path:
     """Every ``step``-th frame of ``sequence`` (a folder with ``img/`` and ``groundtruth.txt``,
-    taken at :data:`SEQUENCE_RATE`) with its box, recorded as a bag of raw frames stamped at
-    ``SEQUENCE_RATE / step`` Hz; returns ``out`` (replaced if it exists)."""
+    stamped at its nominal rate, :data:`SEQUENCE_RATE`) with its box and its own stamp,
+    recorded as a bag of raw frames (``1 / step`` of the rate); returns ``out`` (replaced if
+    it exists)."""
     if out.exists():
         shutil.rmtree(out)
-    paths = sorted(p for p in (sequence / 'img').iterdir() if p.is_file())[::step]
-    boxes = read_groundtruth(sequence / 'groundtruth.txt')[::step]
-    period_ns = round(step * 1e9 / SEQUENCE_RATE)
-    frames = (
-        (index * period_ns, cv2.imread(str(path), cv2.IMREAD_COLOR), box)
-        for index, (path, box) in enumerate(zip(paths, boxes, strict=False))
-    )
+    frames = ((f.stamp_ns, f.image, f.ground_truth) for f in islice(open_sequence(sequence), 0, None, step))
     return write_bag(out, frames, compressed=False, target='hand' if 'hand' in sequence.name else 'head')
 
 

@@ -122,6 +122,24 @@ def _layout(name: str, box: list[float], env: dict[str, str], logs: Path) -> lis
     ]
 
 
+def _handshake(camera: _Camera, executor: SingleThreadedExecutor, first: Image, deadline: float) -> None:
+    """Send ``first`` until its pose comes back, then forget it: the box is given for the first
+    frame, and a node whose subscription has matched may still miss the first frames sent (one
+    run's tracker received 216 of 240, started its box on a later frame than the box's, and
+    returned 48 poses)."""
+    while True:
+        stamp = camera.send(first)
+        wait_until = time.monotonic() + 0.5
+        while stamp not in camera.latency_s and time.monotonic() < wait_until:
+            executor.spin_once(timeout_sec=0.01)
+        if stamp in camera.latency_s:
+            break
+        if time.monotonic() > deadline:
+            raise RuntimeError('no pose came back for the first frame')
+    camera.sent.clear()
+    camera.latency_s.clear()
+
+
 def measure_latency(
     layout: str, rate_hz: float | None, frames: list[Image], box: list[float], logs: Path, env: dict[str, str]
 ) -> dict[str, object]:
@@ -144,6 +162,7 @@ def measure_latency(
                 raise RuntimeError('nodes did not come up:\n' + '\n'.join(node.output() for node in nodes))
             executor.spin_once(timeout_sec=0.05)
         time.sleep(1.0)  # let the nodes finish starting (discovery of their own topics)
+        _handshake(camera, executor, frames[0], deadline)
         started = time.monotonic()
         for message in frames:
             stamp = camera.send(message)

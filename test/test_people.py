@@ -390,6 +390,27 @@ def test_the_occupancy_rule_keeps_the_target_taken_up_first() -> None:
     assert not people._runs(people.slot('person_2/head')) and not people._runs(people.slot('person_2/hand'))
 
 
+def test_a_hand_on_the_forearm_below_another_hand_is_lost() -> None:
+    """Two hands: one whose centre lies below the other's box, within the box's own height (its
+    wrist and forearm), is on that arm: the later one is marked LOST; beside it, or lower down,
+    both stay."""
+    people = PersonTracker(('head', 'hand', 'hand'))
+    first, second = people.slot('hand'), people.slot('hand_2')
+    estimate = TrackEstimate(
+        np.array([50.0, 50.0, 40.0, 0.0]), np.eye(4), 0.8, 0.5, 100.0, (0, 0, 1, 1), np.zeros((1, 2))
+    )
+    ran = [(first, TargetResult('TRACKING', estimate)), (second, TargetResult('TRACKING', estimate))]
+    for box, kept in (
+        ((100.0, 140.0, 40.0, 40.0), False),
+        ((150.0, 140.0, 40.0, 40.0), True),
+        ((100.0, 200.0, 40.0, 40.0), True),
+    ):
+        first.id, first.box = 3, (100.0, 100.0, 40.0, 40.0)
+        second.id, second.box = 5, box
+        statuses = [r.status for _, r in people._keep_apart(ran)]
+        assert statuses == ['TRACKING', 'TRACKING' if kept else 'LOST'] and first.id == 3
+
+
 def test_a_person_started_from_a_box_is_kept_while_another_walks_past(tmp_path) -> None:
     """people_crossing from the still person's head box: the box names the target, so neither the
     waving hand nor the walker, both moving more, takes the head over while the walker is away

@@ -987,7 +987,8 @@ class TargetTracker:
 
     def _waits_for_faces(self, stamp_ns: int | None) -> bool:
         """Whether this frame's detector run serves this frame: without ``detector_thread``, or
-        when the frame comes more than ``detector_wait_interval`` after the one before."""
+        when the frame comes more than ``detector_wait_interval`` after the one before (whose
+        stamp it keeps: the next frame is timed from this one)."""
         last, self._stamp_ns = self._stamp_ns, stamp_ns
         if self._worker is None:
             return True
@@ -995,7 +996,7 @@ class TargetTracker:
             return False
         return (stamp_ns - last) * 1e-9 > self.parameters.detector_wait_interval
 
-    def _detect(self, image: np.ndarray, waits: bool = False) -> list[Detection] | None:
+    def _detect(self, image: np.ndarray, waits: bool) -> list[Detection] | None:
         """Faces for this working frame, None when no detector run delivers any on it.
 
         The detector runs every ``detect_every`` frames, and ``patient_every`` frames apart after

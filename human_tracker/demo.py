@@ -43,8 +43,10 @@ def node_arguments(
     init_box: tuple[float, float, float, float] | None = None,
     motion_input: str = 'none',
     reliable: bool = True,
+    depth: int = 100,
 ) -> list[str]:
-    """``--ros-args`` for a node fed by a bag's camera topic (and, for the tracker, a motion cue)."""
+    """``--ros-args`` for a node fed by a bag's camera topic (and, for the tracker, a motion cue);
+    ``reliable``: a reliable subscription holding up to ``depth`` frames not yet taken."""
     args = ['--ros-args', '-p', f'image_transport:={"compressed" if compressed else "raw"}']
     if init_box is not None:
         args += ['-p', 'init_box:=[' + ', '.join(f'{v:.2f}' for v in init_box) + ']']
@@ -52,7 +54,7 @@ def node_arguments(
         args += ['-p', f'motion_input:={motion_input}']
     if reliable:
         # Every frame of the replay must be tracked so that it can be scored.
-        args += ['-p', 'qos_reliability:=reliable', '-p', 'qos_depth:=100']
+        args += ['-p', 'qos_reliability:=reliable', '-p', f'qos_depth:={depth}']
     args += [
         '-r',
         f'{"image/compressed" if compressed else "image"}:={camera_topic}',

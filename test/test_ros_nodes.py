@@ -308,8 +308,8 @@ def test_two_people_over_dds_are_the_offline_commands(tmp_path) -> None:
     # Half the camera's rate, and a queue that holds the whole bag: three trackers a frame
     # fall behind a faster replay, and on a busy machine, past the default 100 queued frames,
     # the oldest were dropped.
-    args = node_arguments(COMPRESSED_CAMERA_TOPIC, True) + ['-p', 'target:=person', '-p', 'max_people:=2']
-    args[args.index('qos_depth:=100')] = f'qos_depth:={2 * len(frames)}'
+    args = node_arguments(COMPRESSED_CAMERA_TOPIC, True, depth=2 * len(frames))
+    args += ['-p', 'target:=person', '-p', 'max_people:=2']
     pipeline = NodeProcess('human_tracker.ros.pipeline', args, environment(), tmp_path / 'pipeline.log')
     collector = replay_and_collect(
         pipeline, bag, COMPRESSED_CAMERA_TOPIC, tmp_path, len(frames), rate=0.5, diagnostics_of='/tracker_node'

@@ -175,7 +175,7 @@ def test_a_replay_waits_for_a_tracker_that_is_still_compiling(head_bag, tmp_path
             tracker.stop()
             player.stop()
     assert len(collector.poses) == len(frames), tracker.output() + player.output()
-    assert 'ready (' in tracker.output()
+    assert 'warmed up in' in tracker.output() and 'ready' in tracker.output().split('warmed up in')[-1]
 
 
 def test_the_demo_fails_on_missing_poses_or_low_precision() -> None:

@@ -243,6 +243,38 @@ def test_hand_chain_with_skin_node_in_separate_processes(tmp_path) -> None:
             np.testing.assert_allclose(dds_box, core_box, atol=0.05)  # poses.csv rounds to 0.01 px
 
 
+def test_a_tracker_fed_masks_says_ready_once_their_publisher_is_matched(tmp_path) -> None:
+    """A mask published before the tracker's subscription matched its publisher is lost, so
+    the tracker holds its ``ready`` until then: not while no background node runs, soon after
+    one starts."""
+    env = environment()
+    tracker = NodeProcess(
+        'human_tracker.ros.tracker_node',
+        node_arguments(COMPRESSED_CAMERA_TOPIC, True, motion_input='foreground'),
+        env,
+        tmp_path / 'tracker.log',
+    )
+    background = NodeProcess(
+        'human_tracker.ros.background_node', node_arguments(COMPRESSED_CAMERA_TOPIC, True), env, tmp_path / 'bg.log'
+    )
+    with collecting() as (collector, executor):
+        try:
+            tracker.start()
+            deadline = time.monotonic() + 60.0
+            while 'warmed up in' not in tracker.output() and time.monotonic() < deadline:
+                executor.spin_once(timeout_sec=0.05)
+            assert collector.spin_until_diagnostics(executor, '/tracker_node', 10.0).get('ready') == 'False'
+            background.start()
+            deadline = time.monotonic() + 60.0
+            while collector.diagnostics.get('/tracker_node', {}).get('ready') != 'True':
+                assert time.monotonic() < deadline, tracker.output()
+                executor.spin_once(timeout_sec=0.05)
+        finally:
+            codes = [tracker.stop(), background.stop()]
+    assert codes == [0, 0], tracker.output() + background.output()
+    assert 'without a publisher' not in tracker.output()
+
+
 def test_pipeline_follows_a_hand_with_the_skin_stage_in_process(tmp_path) -> None:
     """target:=hand turns the pipeline's skin stage on; the hand is found and followed."""
     bag = REPO / 'bags' / 'hand_wave'
@@ -459,7 +491,7 @@ def test_a_signal_stops_the_node_between_callbacks(tmp_path, stop_signal: signal
         time.sleep(0.05)
     process.process.send_signal(stop_signal)
     assert process.wait(120.0) == 0, process.output()
-    assert 'ready (' in process.output().split('warming up')[-1], process.output()
+    assert 'warmed up in' in process.output().split('warming up')[-1], process.output()
 
 
 def test_a_looping_replay_starts_the_tracker_over(tmp_path, head_bag) -> None:

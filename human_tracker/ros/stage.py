@@ -6,9 +6,11 @@ publishes ``/diagnostics`` periodically, and binds its algorithm's parameter dat
 declared ROS parameters whose run-time changes are validated before they take effect.
 
 Readiness: once its executor spins, a stage compiles its kernels (:meth:`ImageStage.warm_up`)
-and then publishes ``True`` on ``~/ready`` (std_msgs/Bool, transient local) and ``ready`` in
-``/diagnostics``. A replay or a test starts feeding frames only then: a subscriber that
-exists is not yet a node that keeps up.
+and, once each input it waits for (:meth:`ImageStage.unconnected_inputs`: a tracker's
+masks from other nodes) has a publisher matched, or after :data:`INPUT_WAIT` seconds, publishes
+``True`` on ``~/ready`` (std_msgs/Bool, transient local) and ``ready`` in ``/diagnostics``. A
+replay or a test starts feeding frames only then: a subscriber that exists is not yet a node
+that keeps up, and a mask published before its subscriber matched is lost.
 """
 
 from __future__ import annotations
@@ -61,6 +63,9 @@ __all__ = ['DEFERRED', 'ParameterSpec', 'ImageStage', 'run_nodes', 'spin_node', 
 
 DEFERRED = object()
 """Returned by ``handle_frame`` for a frame held for later (it is timed when processed)."""
+
+# Seconds a warmed-up stage waits for publishers on its inputs before it says ready anyway.
+INPUT_WAIT = 30.0
 
 # camera_info's distortion models whose coefficients are OpenCV's (k1, k2, p1, p2, k3, ...).
 _OPENCV_DISTORTION_MODELS = ('plumb_bob', 'rational_polynomial')
@@ -181,9 +186,28 @@ class ImageStage(LifecycleNode):
         self.get_logger().info('warming up: compiling and running the kernels once')
         start = time.perf_counter()
         self.warm_up()
+        self.get_logger().info(f'warmed up in {time.perf_counter() - start:.1f} s')
+        self._input_deadline = time.monotonic() + INPUT_WAIT
+        self._ready_timer = self.create_timer(0.05, self._say_ready_once_connected, clock=self.steady_clock)
+
+    def unconnected_inputs(self) -> list[str]:
+        """Input topics this stage waits for and that have no matched publisher yet (none by default)."""
+        return []
+
+    def _say_ready_once_connected(self) -> None:
+        missing = self.unconnected_inputs()
+        if missing and time.monotonic() < self._input_deadline:
+            return
+        self._ready_timer.cancel()
+        self.destroy_timer(self._ready_timer)
+        if missing:
+            self.get_logger().warn(
+                f'ready without a publisher on {", ".join(missing)} after {INPUT_WAIT:.0f} s: '
+                'frames are tracked without those inputs until one comes'
+            )
         self.ready = True
         self.ready_pub.publish(Bool(data=True))
-        self.get_logger().info(f'ready ({time.perf_counter() - start:.1f} s to warm up)')
+        self.get_logger().info('ready')
 
     def bind_parameters(self, instance: Any, specs: Sequence[ParameterSpec], apply: Callable[[Any], None]) -> Any:
         """Declare ``specs`` from the dataclass ``instance``'s defaults; return it with the declared values.

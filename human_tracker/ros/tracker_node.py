@@ -409,8 +409,10 @@ class TrackerNode(ImageStage):
         mask_qos = QoSProfile(
             depth=4 * self.max_pending, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST
         )
-        for topic in self.mask_topics:
+        self.mask_subscriptions = [
             self.create_subscription(Image, topic, lambda msg, topic=topic: self._on_mask(topic, msg), mask_qos)
+            for topic in self.mask_topics
+        ]
         self.frames_without_depth_reading = 0
         self.last_distance: float | None = None  # measured on the last frame published
         if self.mask_topics:
@@ -452,6 +454,10 @@ class TrackerNode(ImageStage):
             probe.process(rng.integers(0, 256, (32, 32, 3), dtype=np.uint8), blank, blank)
             # A detection (a face, a skin region) on a random frame is rare: its densities too.
             probe.filter.step(blank, detections=np.array([[16.0, 16.0, 16.0, 0.0]]))
+
+    def unconnected_inputs(self) -> list[str]:
+        """The mask topics no publisher is matched on yet: their first masks would be lost."""
+        return [sub.topic_name for sub in self.mask_subscriptions if sub.get_publisher_count() == 0]
 
     def on_image(self, msg: Any) -> None:
         """Remember the stamp of every frame that reached this node, usable or not, then process it."""

@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import itertools
 import json
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -19,11 +20,13 @@ from human_tracker.scenes.generator import PEOPLE_TARGETS, SCENES, render_scene
 from human_tracker.vision.background import BackgroundModel
 from human_tracker.vision.boxes import box_centre, centre_within
 from human_tracker.vision.faces import FACE_ON_HEAD, Detection
-from human_tracker.vision.people import SAME_REGION, PersonTracker, kinds_of
+from human_tracker.vision.people import SAME_REGION, PersonTracker, TrackedTarget, kinds_of, primary_target
 from human_tracker.vision.resolution import to_working
 from human_tracker.vision.skin import SkinParameters, SkinSegmenter, default_skin_model
 from human_tracker.vision.target import (
     FRESH_FACE_FRAMES,
+    LOST,
+    TRACKING,
     SharedFrames,
     TargetResult,
     TargetTracker,
@@ -38,6 +41,30 @@ BAGS = REPO / 'bags'
 
 def _frames(name: str, count: int | None = None) -> list:
     return [(f, message_to_bgr8(f.message)) for f in list(read_frames(BAGS / name))[:count]]
+
+
+def test_the_primary_target_is_the_head_named_or_the_one_nearest_the_centre() -> None:
+    """``pose`` and ``contour`` follow one head: the one ``primary_id`` names while it is
+    followed; else the followed head nearest the image's centre (hands are not heads); else the
+    first person's, followed or not."""
+
+    def target(ident: int, kind: str, person: int, box: tuple[float, ...], status: str = TRACKING) -> TrackedTarget:
+        # The choice reads only each estimate's box (x, y, w, h, camera pixels).
+        result = TargetResult(status, SimpleNamespace(box=box))  # type: ignore[arg-type]
+        return TrackedTarget(ident, kind, person, result, f'person_{person}/{kind}')
+
+    centre = (320.0, 240.0)
+    far, near = target(1, 'head', 1, (10, 10, 50, 60)), target(4, 'head', 2, (290, 200, 50, 60))
+    hand = target(2, 'hand', 1, (300, 220, 20, 20))  # nearer the centre than either head
+    outcomes = [far, hand, near]
+    assert primary_target(outcomes, 'head', centre) is near
+    assert primary_target(outcomes, 'head', centre, chosen_id=1) is far
+    assert primary_target(outcomes, 'head', centre, chosen_id=2) is near  # a hand's id names no head
+    assert primary_target(outcomes, 'head', centre, chosen_id=9) is near  # an id no longer followed
+    lost = target(0, 'head', 2, (290, 200, 50, 60), LOST)
+    assert primary_target([far, hand, lost], 'head', centre) is far
+    first_lost = target(0, 'head', 1, (10, 10, 50, 60), LOST)
+    assert primary_target([first_lost, hand, lost], 'head', centre) is first_lost
 
 
 def test_what_is_followed() -> None:

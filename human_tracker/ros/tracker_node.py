@@ -16,8 +16,9 @@ the next frame; the service ``~/reset`` (std_srvs/Trigger) forgets the target: W
 motion or a box.
 
 With ``target: person`` it follows a head and ``hands`` hands of up to ``max_people`` people
-(:mod:`~human_tracker.vision.people`): the topics above are the first person's head's (the
-primary target, as for ``target: head``), and
+(:mod:`~human_tracker.vision.people`): the topics above are the primary target's, on each
+frame the head ``primary_id`` names while it is followed, else the followed head nearest the
+image's centre (:func:`~human_tracker.vision.people.primary_target`), and
 ``targets`` (nav_msgs/Odometry, one message per tracked target per frame) gives every target:
 ``child_frame_id`` ``person_<person>/<kind>_<id>``, the pose and its covariance in the image's
 optical frame (``header``); the twist is not estimated per target (unknown covariance).
@@ -54,7 +55,7 @@ from human_tracker.ros.markers import cleared_markers, target_markers
 from human_tracker.ros.stage import DEFERRED, ImageStage, ParameterSpec, spin_node, stamp_ns
 from human_tracker.vision.camera import FIT_RESIDUAL_GAIN, metric_positions, position_covariance, undistort_pixels
 from human_tracker.vision.depth import depth_image_to_metres, region_depth
-from human_tracker.vision.people import PersonTracker, TrackedTarget, kinds_of, targets_line
+from human_tracker.vision.people import PersonTracker, TrackedTarget, kinds_of, primary_target, targets_line
 from human_tracker.vision.resolution import same_frame
 from human_tracker.vision.target import LOST, TargetParameters, TargetResult, TargetTracker, parameters_for
 from human_tracker.vision.templates import make_template
@@ -235,6 +236,16 @@ class TrackerNode(ImageStage):
             high=10,
             read_only=True,
         )
+        # Read on every frame: a behaviour names the person it talks to once it has seen their id.
+        declare(
+            self,
+            'primary_id',
+            0,
+            'With target person: the id of the head pose, contour and status follow while it is followed; 0 (or '
+            "the id not followed): the head nearest the image's centre.",
+            low=0,
+            high=2**31 - 1,
+        )
         id_hold_frames = declare(
             self,
             'id_hold_frames',
@@ -270,6 +281,7 @@ class TrackerNode(ImageStage):
             id_hold_frames,
         )
         self.tracker = self.people.first(self.kind)
+        self.primary = self.tracker  # the tracker of this frame's primary target
         if self.tracker.proposals_problem is not None:
             self.get_logger().warn(self.tracker.proposals_problem)
         box = [
@@ -623,7 +635,13 @@ class TrackerNode(ImageStage):
                 self.start_problem = f'init_box ignored: {err}'
                 self.get_logger().error(self.start_problem)
         outcomes = self.people.process(image, motion, skin, shared, camera_motion, stamp_ns=stamp)
-        result = outcomes[0].result
+        centre = (image.shape[1] / 2.0, image.shape[0] / 2.0)
+        primary = primary_target(outcomes, self.kind, centre, self.get_parameter('primary_id').value)
+        tracker = self.people.slot(primary.name).tracker
+        if tracker is not self.primary:
+            # Another person's head: the last distance was the other's.
+            self.primary, self.last_distance = tracker, None
+        result = primary.result
         self.last_result, self.last_outcomes = result, outcomes
         self.status_header = header
         if self._status_key() != self.status_sent:
@@ -641,7 +659,7 @@ class TrackerNode(ImageStage):
         else:
             self.last_distance = None
         if self.targets_pub is not None:
-            self._publish_targets(outcomes, header, size, depth, pose)
+            self._publish_targets(outcomes, primary, header, size, depth, pose)
         if self.markers_pub.get_subscription_count() > 0:
             self._publish_markers(result, header, size)
         if self.debug_pub.get_subscription_count() > 0:
@@ -653,19 +671,19 @@ class TrackerNode(ImageStage):
                 f' skin {estimate.skin_support:.2f} appearance {estimate.appearance_distance:.2f}'
             )
             if len(outcomes) > 1:
-                label = f'{targets_line(outcomes)} | {self.kind}: {label}'
+                label = f'{targets_line(outcomes)} | {primary.name}: {label}'
             debug = annotate(
                 image,
                 contour=None if estimate is None else estimate.contour,
                 box=None if estimate is None else estimate.box,
-                particles=self.tracker.particles,
+                particles=self.primary.particles,
                 label=label,
                 motion=motion if motion is not None else skin,
                 detections=tuple(d for o in outcomes for d in o.result.detections),
             )
-            for outcome in outcomes[1:]:
+            for outcome in outcomes:
                 other = outcome.result.estimate
-                if other is not None and outcome.result.tracking:
+                if outcome is not primary and other is not None and outcome.result.tracking:
                     draw_target(debug, outcome.id, f'{outcome.kind} {outcome.id}', other.contour, other.box)
             self.debug_pub.publish(array_to_image(debug, 'bgr8', header))
         return result
@@ -702,7 +720,7 @@ class TrackerNode(ImageStage):
         measured = None
         if depth is not None:
             measured = region_depth(depth, box_from_state(estimate.state, tracker.template), shape[:2])
-            if measured is None and tracker is self.tracker:  # counted for the primary target's pose
+            if measured is None and tracker is self.primary:  # counted for the primary target's pose
                 self.frames_without_depth_reading += 1
         distance, spread = (None, None) if measured is None else (measured[0] + surface_to_centre, measured[1])
         camera = (tracker.template, k, width, distortion)
@@ -729,12 +747,12 @@ class TrackerNode(ImageStage):
         With a ``depth`` image (metres) the distance is its readings' in the target's region.
         Returns the pose published."""
         estimate = result.estimate
-        particles, previous = self.tracker.particles, self.tracker.previous_particles
+        particles, previous = self.primary.particles, self.primary.previous_particles
         assert estimate is not None and particles is not None and previous is not None
         pose = PoseWithCovarianceStamped()
         pose.header = header
         pose.pose, camera, distance, cloud = self._pose(
-            self.tracker, estimate, shape, self.target_width, self.surface_to_centre, depth
+            self.primary, estimate, shape, self.target_width, self.surface_to_centre, depth
         )
         self.pose_pub.publish(pose)
         # Distances of the same kind on both frames: measured on both, or both from the scale.
@@ -753,22 +771,23 @@ class TrackerNode(ImageStage):
     def _publish_targets(
         self,
         outcomes: list[TrackedTarget],
+        primary: TrackedTarget,
         header: Any,
         shape: tuple[int, ...],
         depth: np.ndarray | None,
-        primary: PoseWithCovariance | None,
+        primary_pose: PoseWithCovariance | None,
     ) -> None:
         """One Odometry on ``targets`` per target TRACKING on this frame, named by its person, kind
-        and id; the primary target's pose is the one ``pose`` got (``primary``)."""
+        and id; the ``primary`` target's pose is the one ``pose`` got (``primary_pose``)."""
         for outcome in outcomes:
             if not outcome.result.tracking:
                 continue
             odometry = Odometry()
             odometry.header = header
             odometry.child_frame_id = f'person_{outcome.person}/{outcome.kind}_{outcome.id}'
-            if outcome is outcomes[0]:
-                assert primary is not None  # published on pose: the primary target is TRACKING
-                odometry.pose = primary
+            if outcome is primary:
+                assert primary_pose is not None  # published on pose: the primary target is TRACKING
+                odometry.pose = primary_pose
             else:
                 estimate = outcome.result.estimate
                 assert estimate is not None
@@ -816,7 +835,7 @@ class TrackerNode(ImageStage):
 
     def _publish_status(self) -> None:
         """The tracker's state and its cues' support, stamped with the last frame tracked."""
-        state = self.tracker.status
+        state = self.primary.status
         level = DiagnosticStatus.WARN if state == LOST else DiagnosticStatus.OK
         status = node_status(self, state, self._target_values(), level=level)
         self.status_pub.publish(DiagnosticArray(header=self.status_header, status=[status]))
@@ -826,7 +845,7 @@ class TrackerNode(ImageStage):
         """What a status message is sent at once on a change of: the state and the shape (a
         hand opening or closing is a gesture)."""
         estimate = None if self.last_result is None else self.last_result.estimate
-        return self.tracker.status, '' if estimate is None else estimate.shape
+        return self.primary.status, '' if estimate is None else estimate.shape
 
     def _target_values(self) -> dict[str, str]:
         """The last estimate's shape, confidence and per-cue support (empty without one)."""
@@ -856,7 +875,7 @@ class TrackerNode(ImageStage):
             extra['cannot_start'] = self.start_problem
         if len(self.people.kinds) > 1:
             extra['targets'] = targets_line(self.last_outcomes)
-        return self.tracker.status, {**extra, **self._target_values()}
+        return self.primary.status, {**extra, **self._target_values()}
 
 
 def _velocity(

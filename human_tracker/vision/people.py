@@ -76,7 +76,7 @@ from human_tracker.vision.target import (
 from human_tracker.vision.templates import ContourTemplate, make_template
 from human_tracker.vision.tracker import TrackerParameters
 
-__all__ = ['KINDS', 'TARGETS', 'PersonTracker', 'TrackedTarget', 'kinds_of', 'targets_line']
+__all__ = ['KINDS', 'TARGETS', 'PersonTracker', 'TrackedTarget', 'kinds_of', 'primary_target', 'targets_line']
 
 KINDS = ('head', 'hand')
 TARGETS = (*KINDS, 'person')
@@ -126,6 +126,23 @@ class TrackedTarget(NamedTuple):
     person: int
     result: TargetResult
     name: str = ''
+
+
+def primary_target(
+    outcomes: Sequence[TrackedTarget], kind: str, centre: tuple[float, float], chosen_id: int = 0
+) -> TrackedTarget:
+    """The target a consumer of one target follows among a frame's ``outcomes`` (the tracker
+    node's ``pose`` and ``contour``): the target of ``kind`` holding ``chosen_id`` while it is
+    followed; else, of the followed targets of ``kind``, the one whose box centre lies nearest
+    ``centre`` (x, y, camera pixels: the image's centre, where a robot looks at the person it
+    talks to); else the first outcome (the first person's, not followed)."""
+    followed = [o for o in outcomes if o.kind == kind and o.result.tracking]
+    chosen = [o for o in followed if chosen_id and o.id == chosen_id]
+    if chosen:
+        return chosen[0]
+    if not followed:
+        return outcomes[0]
+    return min(followed, key=lambda o: float(np.hypot(*np.subtract(box_centre(o.result.estimate.box), centre))))
 
 
 def targets_line(outcomes: Sequence[TrackedTarget]) -> str:

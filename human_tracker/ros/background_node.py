@@ -99,7 +99,7 @@ class BackgroundNode(ImageStage):
 
 def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run human_tracker background_node``; returns the exit code."""
-    return spin_node(BackgroundNode, args)
+    return spin_node(BackgroundNode, args, name='background_node', summary=__doc__)
 
 
 if __name__ == '__main__':

@@ -45,6 +45,7 @@ from human_tracker.ros.common import (
     spin_until,
     stop_on_signals,
 )
+from human_tracker.ros.startup import StartError, check_configuration, without_help
 
 __all__ = ['BagPlayer', 'main', 'message_class']
 
@@ -246,8 +247,13 @@ def main(args: list[str] | None = None) -> int:
     # Our options (``--remap old:=new`` among them) come before ``--ros-args``: rcl would
     # take ``old:=new`` for a global remap rule of this node if it saw it.
     split = argv.index('--ros-args') if '--ros-args' in argv else len(argv)
-    options = _arguments(argv[1:split])
-    init_without_signal_handlers([argv[0], *argv[split:]])
+    ros_argv, wants_help = without_help([argv[0], *argv[split:]])
+    options = _arguments([*argv[1:split], *(['--help'] if wants_help else [])])
+    try:
+        init_without_signal_handlers(ros_argv)
+    except StartError as err:
+        print(f'bag_play: cannot start: {err}', file=sys.stderr)
+        return 2
     player = None
     executor = None
     spinner = None
@@ -258,6 +264,7 @@ def main(args: list[str] | None = None) -> int:
             player = BagPlayer(
                 bag, rate=options.rate, topics=options.topics, remaps=_parse_remaps(options.remap), clock=options.clock
             )
+            check_configuration([player], ros_argv)
             # Services (pause / resume) are served while the main thread publishes.
             executor = SingleThreadedExecutor()
             executor.add_node(player)
@@ -280,6 +287,9 @@ def main(args: list[str] | None = None) -> int:
                     break
             player.finish()
             player.get_logger().info(f'played {player.published} messages from {bag}')
+        except StartError as err:
+            print(f'bag_play: cannot start: {err}', file=sys.stderr)
+            code = 2
         except (AnyReaderError, ReaderError, BagError, ValueError, OSError) as err:
             print(f'bag_play: error: {err}', file=sys.stderr)
             code = 1

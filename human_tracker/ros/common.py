@@ -4,6 +4,7 @@ accounting, diagnostics, and an orderly stop on SIGINT / SIGTERM."""
 from __future__ import annotations
 
 import signal
+import sys
 import threading
 import time
 import weakref
@@ -20,6 +21,8 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from rclpy.signals import SignalHandlerOptions
+
+from human_tracker.ros.startup import init_rclpy
 
 __all__ = [
     'declare',
@@ -289,8 +292,11 @@ def init_without_signal_handlers(args: list[str] | None = None) -> None:
     rclpy's handlers shut the context down from a thread of their own, whatever the nodes are
     doing at that moment (a callback publishing, a node being destroyed): a pipeline stopped
     with Ctrl-C while it warmed up died, now and then, of a segmentation fault (exit -11).
+
+    Raises:
+        StartError: rcl refused the ROS arguments, or a parameter file is missing or not YAML.
     """
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    init_rclpy(sys.argv if args is None else args, signal_handler_options=SignalHandlerOptions.NO)
 
 
 @contextmanager

@@ -105,7 +105,7 @@ class OpticalFlowNode(ImageStage):
 
 def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run human_tracker optical_flow_node``; returns the exit code."""
-    return spin_node(OpticalFlowNode, args)
+    return spin_node(OpticalFlowNode, args, name='optical_flow_node', summary=__doc__)
 
 
 if __name__ == '__main__':

@@ -73,7 +73,7 @@ def build_pipeline() -> list[Node]:
     use_skin = declare(
         selector,
         'skin_cue',
-        tracker.people.uses_skin,
+        tracker.uses_skin,
         'Segment skin in process (§3.2); default: on when the tracker follows a hand (or a person).',
         read_only=True,
     )
@@ -86,7 +86,7 @@ def build_pipeline() -> list[Node]:
 
 def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run human_tracker pipeline``; returns the exit code."""
-    return run_nodes(build_pipeline, args, name='pipeline')
+    return run_nodes(build_pipeline, args, name='pipeline', summary=__doc__)
 
 
 if __name__ == '__main__':

@@ -169,7 +169,7 @@ class SkinNode(ImageStage):
 
 def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run human_tracker skin_node``; returns the exit code."""
-    return spin_node(SkinNode, args)
+    return spin_node(SkinNode, args, name='skin_node', summary=__doc__)
 
 
 if __name__ == '__main__':

@@ -17,12 +17,14 @@ from __future__ import annotations
 
 import array
 import dataclasses
+import functools
+import sys
 import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import partial
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import rclpy
@@ -39,7 +41,6 @@ from rosbags.serde import SerdeError
 from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 from std_msgs.msg import Bool, Header
 
-from human_tracker.io.bags import TYPESTORE
 from human_tracker.io.images import stamp_ns
 from human_tracker.ros.common import (
     LATCHED_QOS,
@@ -56,8 +57,19 @@ from human_tracker.ros.common import (
     stop_on_signals,
 )
 from human_tracker.ros.image_conversion import ImageConversionError, message_to_bgr8
+from human_tracker.ros.startup import (
+    StartError,
+    check_configuration,
+    declare_strict,
+    quiet_discovery,
+    usage,
+    without_help,
+)
 from human_tracker.threads import default_threads, use_threads
 from human_tracker.vision.camera import default_camera_matrix
+
+if TYPE_CHECKING:
+    from rosbags.typesys.store import Typestore
 
 __all__ = ['DEFERRED', 'ParameterSpec', 'ImageStage', 'run_nodes', 'spin_node', 'stamp_ns']
 
@@ -69,6 +81,15 @@ INPUT_WAIT = 30.0
 
 # camera_info's distortion models whose coefficients are OpenCV's (k1, k2, p1, p2, k3, ...).
 _OPENCV_DISTORTION_MODELS = ('plumb_bob', 'rational_polynomial')
+
+
+@functools.cache
+def _typestore() -> Typestore:
+    """rosbags' Jazzy message types, imported on first use: a quarter of a second that a node
+    answering ``--help`` need not pay (a stage loads it while it warms up)."""
+    from human_tracker.io.bags import TYPESTORE
+
+    return TYPESTORE
 
 
 def _plain(value: Any) -> Any:
@@ -106,6 +127,10 @@ class ImageStage(LifecycleNode):
     the camera subscriber is the input: managing it manages the pipeline.
     """
 
+    describing = False
+    """Set while ``--help`` builds the nodes: a stage declares its parameters and topics but
+    builds none of its algorithm's state (a tracker's templates take a second to build)."""
+
     def __init__(self, name: str, *, subscribe_image: bool = True, **kwargs: Any) -> None:
         super().__init__(name, **kwargs)
         self.active = False
@@ -142,6 +167,7 @@ class ImageStage(LifecycleNode):
             read_only=True,
         )
         self.threads = use_threads(threads)
+        self.configuration_problems: list[str] = []
         self.ready = False
         self.ready_pub = self.create_publisher(Bool, '~/ready', LATCHED_QOS)
         # Fires once the executor spins, that is after every subclass has finished building.
@@ -185,6 +211,7 @@ class ImageStage(LifecycleNode):
         # A first run compiles for tens of seconds: say why the node is not ready yet.
         self.get_logger().info('warming up: compiling and running the kernels once')
         start = time.perf_counter()
+        _typestore()
         self.warm_up()
         self.get_logger().info(f'warmed up in {time.perf_counter() - start:.1f} s')
         self._input_deadline = time.monotonic() + INPUT_WAIT
@@ -277,7 +304,7 @@ class ImageStage(LifecycleNode):
         be read is counted and logged as a rejected conversion.
         """
         try:
-            msg = TYPESTORE.deserialize_cdr(data, typename)
+            msg = _typestore().deserialize_cdr(data, typename)
         except SerdeError as err:
             self.counters.received += 1
             self.counters.reject('conversion')
@@ -402,6 +429,8 @@ class ImageStage(LifecycleNode):
     def _publish_diagnostics(self) -> None:
         state, extra = self.diagnostics_state()
         extra = {'ready': self.ready, 'threads': self.threads, 'time_resets': self.time_resets, **extra}
+        if self.configuration_problems:
+            extra['configuration'] = '; '.join(self.configuration_problems)
         status = diagnostic_status(self, self.counters, self.timer_stats, state=state, extra=extra)
         publish_diagnostics(self, self.diagnostics_pub, [status])
 
@@ -412,6 +441,7 @@ def run_nodes(
     *,
     name: str = 'node',
     run: Callable[[list[Node]], None] | None = None,
+    summary: str = '',
 ) -> int:
     """Init rclpy, build the nodes, run them until SIGINT or SIGTERM; return the exit code.
 
@@ -419,13 +449,26 @@ def run_nodes(
     thread while they are spun in another (their timers, services and parameters keep
     answering) until it returns.
 
+    ``-h`` / ``--help`` prints the nodes' parameters (defaults, ranges, descriptions) and
+    topics, with ``summary`` above them, and exits 0: the nodes are built with discovery off
+    and never spun. Malformed ROS arguments, a missing or unparseable parameter file, a
+    parameter or parameter-file section that no node declares (unless ``strict:=false``: a
+    warning, also in ``/diagnostics``), a ValueError or an rclpy parameter error while
+    building or running (a value out of range or of the wrong type, a missing file): one line
+    with the reason and exit code 2, no traceback.
+
     A signal stops the spinning between two callbacks (see
     :func:`~human_tracker.ros.common.stop_on_signals`); the nodes are then destroyed and rclpy
-    shut down here, in order. A ValueError or an rclpy parameter error while building or
-    running (a parameter out of range or of the wrong type, a missing file) is logged with its
-    reason and gives exit code 2, with no traceback. Ctrl-C exits with 0.
+    shut down here, in order. Ctrl-C exits with 0.
     """
-    init_without_signal_handlers(args)
+    argv, wants_help = without_help(sys.argv if args is None else args)
+    if wants_help:
+        return _print_usage(build, argv, name, summary)
+    try:
+        init_without_signal_handlers(argv)
+    except StartError as err:
+        print(f'{name}: cannot start: {err}', file=sys.stderr)
+        return 2
     nodes: list[Node] = []
     executor = SingleThreadedExecutor()
     spinner: threading.Thread | None = None
@@ -433,6 +476,7 @@ def run_nodes(
     with stop_on_signals(interrupt=run is not None) as stop:
         try:
             nodes = build()
+            check_configuration(nodes, argv)
             for node in nodes:
                 executor.add_node(node)
             if run is None:
@@ -460,6 +504,27 @@ def run_nodes(
     return code
 
 
-def spin_node(factory: Callable[[], Node], args: list[str] | None = None) -> int:
-    """Spin the one node ``factory`` makes (see :func:`run_nodes`)."""
-    return run_nodes(lambda: [factory()], args, name=getattr(factory, '__name__', 'node'))
+def _print_usage(build: Callable[[], list[Node]], argv: list[str], name: str, summary: str) -> int:
+    quiet_discovery()
+    nodes: list[Node] = []
+    try:
+        # The nodes are built, not run: what they log while being built is not the answer.
+        init_without_signal_handlers([*argv, '--ros-args', '--log-level', 'fatal'])
+        ImageStage.describing = True
+        nodes = build()
+        for node in nodes:
+            declare_strict(node)
+        print(usage(name, nodes, summary))
+    except (ValueError, ParameterException) as err:
+        print(f'{name}: cannot start: {err}', file=sys.stderr)
+        return 2
+    finally:
+        for node in nodes:
+            node.destroy_node()
+        shutdown()
+    return 0
+
+
+def spin_node(factory: Callable[[], Node], args: list[str] | None, *, name: str, summary: str = '') -> int:
+    """Spin the one node ``factory`` makes; ``name`` is the executable's (see :func:`run_nodes`)."""
+    return run_nodes(lambda: [factory()], args, name=name, summary=summary)

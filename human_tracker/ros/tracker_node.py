@@ -268,22 +268,9 @@ class TrackerNode(ImageStage):
         )
         # The primary target (the head of a person) is the one of pose, contour, status and markers.
         self.kind = kinds[0]
-        self.template = make_template(self.kind, num_points, template_file)
+        self.kinds = kinds
         filter_parameters = self.bind_parameters(TrackerParameters(), FILTER_PARAMETERS, self._apply_filter)
         target_parameters = self.bind_parameters(parameters_for(self.kind), TARGET_PARAMETERS, self._apply_target)
-        templates = {kind: make_template(kind, num_points) for kind in kinds} | {self.kind: self.template}
-        self.people = PersonTracker(
-            kinds,
-            filter_parameters,
-            {self.kind: target_parameters},
-            templates,
-            max_people if len(kinds) > 1 else 1,
-            id_hold_frames,
-        )
-        self.tracker = self.people.first(self.kind)
-        self.primary = self.tracker  # the tracker of this frame's primary target
-        if self.tracker.proposals_problem is not None:
-            self.get_logger().warn(self.tracker.proposals_problem)
         box = [
             float(v)
             for v in declare(
@@ -430,6 +417,22 @@ class TrackerNode(ImageStage):
         if self.mask_topics:
             self.create_timer(0.02, self._drain, clock=self.steady_clock)
         self.start_problem: str | None = None
+        if self.describing:
+            return
+        self.template = make_template(self.kind, num_points, template_file)
+        templates = {kind: make_template(kind, num_points) for kind in kinds} | {self.kind: self.template}
+        self.people = PersonTracker(
+            kinds,
+            filter_parameters,
+            {self.kind: target_parameters},
+            templates,
+            max_people if len(kinds) > 1 else 1,
+            id_hold_frames,
+        )
+        self.tracker = self.people.first(self.kind)
+        self.primary = self.tracker  # the tracker of this frame's primary target
+        if self.tracker.proposals_problem is not None:
+            self.get_logger().warn(self.tracker.proposals_problem)
         if subscribe_image:
             self.check_start(motion=self.motion_input != 'none', skin=skin_input)
         self._publish_status()
@@ -438,13 +441,18 @@ class TrackerNode(ImageStage):
             f'{self.template.num_points} points, mask inputs: {", ".join(self.mask_topics) or "none"}'
         )
 
+    @property
+    def uses_skin(self) -> bool:
+        """Whether a target's tracker wants skin labels (a hand's)."""
+        return 'hand' in self.kinds
+
     def check_start(self, *, motion: bool, skin: bool) -> None:
         """Say (log, diagnostics) when these inputs can never start the tracker by itself.
 
         Without ``init_box`` the filter starts from the region of ``init_region``: the motion
         mask or the skin labels. A node given neither waits for ever; it is told at start.
         """
-        if self.init_box is not None:
+        if self.init_box is not None or self.describing:
             return
         region = self.tracker.parameters.init_region
         if (region == 'motion' and not motion) or (region == 'skin' and not skin):
@@ -907,7 +915,7 @@ def _velocity(
 
 def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run human_tracker tracker_node``; returns the exit code."""
-    return spin_node(TrackerNode, args)
+    return spin_node(TrackerNode, args, name='tracker_node', summary=__doc__)
 
 
 if __name__ == '__main__':

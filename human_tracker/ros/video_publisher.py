@@ -186,7 +186,7 @@ def _publish_all(nodes: list[Node]) -> None:
 
 def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run human_tracker video_publisher``; returns the exit code."""
-    return run_nodes(lambda: [VideoPublisher()], args, name='video_publisher', run=_publish_all)
+    return run_nodes(lambda: [VideoPublisher()], args, name='video_publisher', run=_publish_all, summary=__doc__)
 
 
 if __name__ == '__main__':

@@ -67,7 +67,8 @@ class FaceDetector:
     def __init__(self, min_score: float = 0.0) -> None:
         import dlib
 
-        self._detector = dlib.get_frontal_face_detector()
+        self._dlib = dlib
+        self._model: object | None = None
         self.min_score = min_score
         # Local contrast: a face in shadow against a bright sky (trellis) has too little
         # gradient for the HOG; equalised in tiles it is found twice as often there, and
@@ -84,7 +85,11 @@ class FaceDetector:
         """
         if image.ndim == 3:
             image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-        rectangles, scores, _ = self._detector.run(self._contrast.apply(image), upsample, self.min_score)
+        if self._model is None:
+            # Built on first use (0.4 s): a node answering --help or building its stages
+            # does not wait for it; the warm-up calls this before the first frame.
+            self._model = self._dlib.get_frontal_face_detector()
+        rectangles, scores, _ = self._model.run(self._contrast.apply(image), upsample, self.min_score)
         found = [
             Detection((float(r.left()), float(r.top()), float(r.width()), float(r.height())), float(score))
             for r, score in zip(rectangles, scores, strict=True)

@@ -40,8 +40,6 @@ from pathlib import Path
 import cv2
 import numba
 import numpy as np
-from scipy.cluster.vq import kmeans2
-from scipy.ndimage import gaussian_filter1d
 
 from human_tracker.vision.exposure import MAX_EXPOSURE_GAIN, normalise_exposure
 
@@ -287,6 +285,8 @@ def train_skin_model(
         raise ValueError(f'need at least {10 * num_classes} skin samples, got {skin.shape[0]}')
     if not 0.0 < skin_coverage < 1.0:
         raise ValueError(f'skin_coverage must be in (0, 1), got {skin_coverage}')
+    from scipy.cluster.vq import kmeans2  # here: a second's import a node answering --help need not pay
+
     _, labels = kmeans2(skin, num_classes, minit='++', seed=np.random.default_rng(seed))
     classes = tuple(
         SkinClass(skin[labels == k].mean(axis=0), np.cov(skin[labels == k].T) + np.eye(2))
@@ -596,6 +596,8 @@ def _row_modes(
     """:func:`histogram_modes` of each row of ``(R, B)`` histograms."""
     smooth = np.asarray(histograms, dtype=np.float64)
     if smoothing > 0:
+        from scipy.ndimage import gaussian_filter1d  # here, as kmeans2
+
         smooth = gaussian_filter1d(smooth, smoothing, axis=1, mode='constant')
     return _modes(smooth, peak_fraction, support_fraction, max_peaks)
 

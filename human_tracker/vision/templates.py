@@ -14,7 +14,6 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
-from scipy.interpolate import splev, splprep
 
 __all__ = [
     'ContourTemplate',
@@ -189,6 +188,10 @@ def template_from_control_points(
         raise ValueError(f'num_points must be >= 4, got {num_points}')
     if closed and not np.allclose(control[0], control[-1]):
         control = np.vstack([control, control[:1]])
+    # Imported here: scipy.interpolate takes half a second to import, which a node answering
+    # --help, or one that never builds a template, need not pay.
+    from scipy.interpolate import splev, splprep
+
     tck, _ = splprep(control.T, s=0.0, per=int(closed), k=3)
     dense = np.linspace(0.0, 1.0, 4000)
     xy = np.stack(splev(dense, tck), axis=1)

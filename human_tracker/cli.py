@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import logging
 import shutil
 import sys
 from pathlib import Path
 
 from human_tracker.io.bags import BagError
 from human_tracker.io.frames import FrameSourceError
-from human_tracker.io.sequences import SequenceError
+from human_tracker.io.sequences import SequenceError, sequence_name
 
 __all__ = ['main']
 
@@ -62,7 +63,7 @@ def _track(options: argparse.Namespace) -> int:
     from human_tracker.vision.tracker import TrackerParameters
 
     use_threads(default_threads() if options.threads is None else options.threads)
-    out = options.out or Path('out') / 'track' / Path(options.input).name
+    out = options.out or Path('out') / 'track' / sequence_name(Path(options.input))
     settings = TrackOptions(
         target=options.target,
         init=options.init,
@@ -104,6 +105,9 @@ def _eval(options: argparse.Namespace) -> int:
         else [f.ground_truth for f in open_sequence(truth_path)]
     )
     frames = len(next(iter(tracks.values())))
+    if not any(box is not None for box in truth):
+        print(f"human_tracker eval: no ground truth in {truth_path} (groundtruth.txt, or a bag's)", file=sys.stderr)
+        return 2
     if len(truth) != frames:
         print(f'human_tracker eval: {frames} poses but {len(truth)} ground-truth frames', file=sys.stderr)
         return 2
@@ -267,7 +271,12 @@ def main(argv: list[str] | None = None) -> int:
         metavar='N',
         help='with --target person: the most people followed at once, each with its ids (default 1)',
     )
-    track.add_argument('--out', type=Path, help='output folder (default out/track/<input name>)')
+    track.add_argument(
+        '--out',
+        type=Path,
+        help="output folder (default out/track/<sequence name>: a folder's or file's name, "
+        "the parent's for an img/ folder)",
+    )
     track.add_argument(
         '--cue', choices=('background', 'flow', 'none'), default='background', help='motion cue (default background)'
     )
@@ -285,8 +294,15 @@ def main(argv: list[str] | None = None) -> int:
     )
     track.add_argument('--merge-distance', type=float, default=0.0, metavar='D', help=_MERGE_DISTANCE_HELP)
     track.add_argument('--template', help='JSON template file replacing the built-in one')
-    track.add_argument('--particles', type=int, default=500)
-    track.add_argument('--seed', type=int, default=0)
+    track.add_argument(
+        '--particles', type=int, default=500, metavar='P', help="particles of each target's filter (default 500)"
+    )
+    track.add_argument(
+        '--seed',
+        type=int,
+        default=0,
+        help='seed of the random generators: the same seed on the same input gives the same poses (default 0)',
+    )
     track.add_argument(
         '--working-width',
         type=int,
@@ -373,6 +389,8 @@ def main(argv: list[str] | None = None) -> int:
     skin.set_defaults(run=_skin)
 
     options = parser.parse_args(argv)
+    # What the library warns of (a truncated video, frames without colour) reaches the user.
+    logging.basicConfig(level=logging.WARNING, format=f'human_tracker {options.command}: %(levelname)s: %(message)s')
     try:
         return int(options.run(options))
     except (SequenceError, BagError, FrameSourceError, ValueError, OSError) as err:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import csv
 import json
+import logging
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -48,6 +49,10 @@ __all__ = [
 ]
 
 CUES = ('background', 'flow', 'none')
+GREY_WARNING = (
+    '{name}: frame {index} has no colour (a grey-level camera?): no skin can be found in it, so no hand is '
+    'followed on such frames (frames_without_colour in summary.json)'
+)
 POSE_COLUMNS = (
     'frame',
     'stamp_ns',
@@ -73,6 +78,7 @@ POSE_COLUMNS = (
     'person',
     'target',
 )
+_LOG = logging.getLogger(__name__)
 _AFTER_STATUS = len(POSE_COLUMNS) - POSE_COLUMNS.index('status') - 1
 _T = TypeVar('_T')
 
@@ -184,7 +190,14 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
     with (out / 'poses.csv').open('w', newline='') as handle:
         table = csv.writer(handle)
         table.writerow(POSE_COLUMNS)
-        for frame in tqdm(sequence, desc=f'tracking {sequence.name}', unit='frame', disable=not options.progress):
+        frames = tqdm(
+            sequence,
+            desc=f'tracking {sequence.name}',
+            unit='frame',
+            total=sequence.length,
+            disable=not options.progress,
+        )
+        for frame in frames:
             truth.append(frame.ground_truth)
             for name, box in frame.ground_truths.items():
                 tracks.setdefault(name, [None] * (len(truth) - 1)).append(box)
@@ -211,6 +224,12 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
             if segmenter is not None and has_colour(frame.image):
                 skin = segmenter.segment(to_working(frame.image, width), working_scale(frame.image.shape[1], width))
             elif segmenter is not None:
+                # No colour, no skin: empty labels, as the skin stage publishes. A hand is started
+                # and held by its skin, so none is followed (on grey frames one settled on blinds).
+                skin = np.zeros(working.shape, dtype=np.uint8)
+                if grey_frames == 0:
+                    sequence.warnings.append(GREY_WARNING.format(name=sequence.name, index=frame.index))
+                    _LOG.warning(sequence.warnings[-1])
                 grey_frames += 1
             if frame.index == 0 and options.init is not None:
                 check_box_in_image(options.init, frame.image.shape)
@@ -255,6 +274,7 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
         'skin': use_skin,
         'working_width': width,
         'frames_without_colour': grey_frames,
+        'warnings': sequence.warnings,
         'frames_motion_set_aside': motion_set_aside,
         'init': list(options.init) if options.init is not None else 'motion',
         'frames': len(truth),

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -14,7 +16,8 @@ os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 os.environ.setdefault('RMW_IMPLEMENTATION', 'rmw_fastrtps_cpp')
 
 REPO = Path(__file__).resolve().parents[1]
-HEAD_BAG = REPO / 'bags' / 'head_basic'
+BAGS = REPO / 'bags'
+HEAD_BAG = BAGS / 'head_basic'
 REAL_DATA = REPO.parent / 'shared' / 'data' / 'real'
 
 
@@ -23,3 +26,13 @@ def head_bag() -> Path:
     """The bundled head-and-shoulders bag (JPEG frames, ground truth)."""
     assert HEAD_BAG.exists(), f'{HEAD_BAG} is missing: run `make bags`'
     return HEAD_BAG
+
+
+@pytest.fixture(autouse=True)
+def _rclpy_shut_down_after_each_test() -> Iterator[None]:
+    """rclpy's context is shut down after every test, even one that failed between
+    ``rclpy.init()`` and its own clean-up: a context left up breaks every later ``init``."""
+    yield
+    rclpy = sys.modules.get('rclpy')
+    if rclpy is not None and rclpy.ok():
+        rclpy.try_shutdown()

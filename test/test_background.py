@@ -5,7 +5,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 import pytest
-from conftest import REAL_DATA, REPO
+from conftest import BAGS, REAL_DATA, REPO
 
 from human_tracker.io.bags import read_frames
 from human_tracker.ros.image_conversion import message_to_bgr8, to_mono8
@@ -80,7 +80,7 @@ def test_foreground_covers_the_person_on_the_stop_and_go_bag() -> None:
     """The person appears at frame 10 and stands still until 30, then stops again 75-105."""
     model = BackgroundModel()
     coverage, false_alarm = [], []
-    for frame in read_frames('bags/head_stop_and_go'):
+    for frame in read_frames(str(BAGS / 'head_stop_and_go')):
         mask = model.apply(to_mono8(message_to_bgr8(frame.message)))
         if frame.ground_truth is None:
             false_alarm.append(np.mean(mask > 0))

@@ -17,7 +17,7 @@ import numba
 import numpy as np
 import pytest
 import rclpy
-from conftest import REPO
+from conftest import BAGS, REPO
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from ros_harness import collecting, environment
@@ -192,7 +192,7 @@ def test_masks_of_frames_tracked_long_ago_are_not_counted_as_never_received() ->
     masks arrive. None of those frames was lost: frames_never_received stays 0. Then the mask
     of a frame that never reached the tracker is counted.
     """
-    frame = message_to_bgr8(next(iter(read_frames('bags/head_basic'))).message)
+    frame = message_to_bgr8(next(iter(read_frames(str(BAGS / 'head_basic')))).message)
     rclpy.init()
     overrides = [Parameter('motion_input', value='foreground'), Parameter('match_timeout', value=0.0)]
     node = TrackerNode(parameter_overrides=overrides)
@@ -274,7 +274,7 @@ def test_a_tracker_that_cannot_start_by_itself_says_so(overrides: list[Parameter
 
 
 def test_an_init_box_outside_the_image_is_reported_and_ignored() -> None:
-    frame = message_to_bgr8(next(iter(read_frames('bags/head_basic'))).message)
+    frame = message_to_bgr8(next(iter(read_frames(str(BAGS / 'head_basic')))).message)
     rclpy.init()
     try:
         node = TrackerNode(parameter_overrides=[Parameter('init_box', value=[5000.0, 5000.0, 10.0, 10.0])])
@@ -370,9 +370,12 @@ def test_the_launch_file_opens_the_shipped_rviz_view_when_asked() -> None:
 @pytest.mark.parametrize(
     ('args', 'says'),
     [
-        (['track', 'bags/head_basic', '--init', '5000,5000,10,10', '--no-video', '--quiet'], 'outside the 640x480'),
-        (['import', 'bags/head_basic', '--out', '/tmp/never', '--target', 'face'], "invalid choice: 'face'"),
-        (['eval', 'README.md', 'bags/head_basic'], 'is not a poses.csv written by `track`'),
+        (
+            ['track', str(BAGS / 'head_basic'), '--init', '5000,5000,10,10', '--no-video', '--quiet'],
+            'outside the 640x480',
+        ),
+        (['import', str(BAGS / 'head_basic'), '--out', '/tmp/never', '--target', 'face'], "invalid choice: 'face'"),
+        (['eval', str(REPO / 'README.md'), str(BAGS / 'head_basic')], 'is not a poses.csv written by `track`'),
     ],
 )
 def test_offline_mistakes_are_refused_with_the_reason(args: list[str], says: str, tmp_path) -> None:

@@ -8,6 +8,7 @@ from contextlib import contextmanager
 
 import numpy as np
 import rclpy
+from conftest import BAGS
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
@@ -125,7 +126,7 @@ def _spin_until(executor: SingleThreadedExecutor, done: Callable[[], bool], time
 
 
 def test_tracker_debug_image_and_pose_carry_the_input_header() -> None:
-    frames = list(read_frames('bags/head_basic'))[:3]
+    frames = list(read_frames(str(BAGS / 'head_basic')))[:3]
     box = [float(v) for v in frames[0].ground_truth]
     overrides = [
         Parameter('init_box', value=box),
@@ -157,7 +158,7 @@ def test_tracker_debug_image_and_pose_carry_the_input_header() -> None:
 
 def test_a_person_debug_image_draws_each_target_in_its_id_colour() -> None:
     """target person: the hand, once it has an id, is drawn in that id's colour on debug_image."""
-    frames = list(read_frames('bags/hand_wave'))[:40]
+    frames = list(read_frames(str(BAGS / 'hand_wave')))[:40]
     overrides = [
         Parameter('target', value='person'),
         Parameter('skin_input', value=True),

@@ -11,7 +11,7 @@ from dataclasses import replace
 import cv2
 import numpy as np
 import pytest
-from conftest import REAL_DATA
+from conftest import BAGS, REAL_DATA
 
 from human_tracker.cli import main
 from human_tracker.evaluation.conditions import SHAKE_MARGIN, dim, shake, slow_camera, widen
@@ -171,8 +171,8 @@ def test_unreadable_frames_are_counted_and_the_run_goes_on(tmp_path, head_bag) -
     'args',
     [
         ['track', '/nonexistent/sequence'],
-        ['track', 'bags/head_basic', '--init', '1,2,3'],
-        ['eval', 'no.csv', 'bags/head_basic'],
+        ['track', str(BAGS / 'head_basic'), '--init', '1,2,3'],
+        ['eval', 'no.csv', str(BAGS / 'head_basic')],
     ],
 )
 def test_bad_input_gives_a_clear_error_and_no_traceback(args: list[str]) -> None:

@@ -63,12 +63,19 @@ def test_skin_node_labels_colour_frames_and_reports_grey_ones() -> None:
         while len(received) < len(frames) + 1 and time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.05)
         state, extra = node.diagnostics_state()
+        warning_while_grey = node.input_warning()
+        # Colour again: the warning goes.
+        images.publish(array_to_image(frames[1].image, 'bgr8', _header(len(frames) + 1)))
+        deadline = time.monotonic() + 30.0
+        while len(received) < len(frames) + 2 and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+        warning_after = node.input_warning()
     finally:
         executor.shutdown()
         node.destroy_node()
         source.destroy_node()
         rclpy.try_shutdown()
-    assert sorted(received) == list(range(len(frames) + 1))
+    assert sorted(received) == list(range(len(frames) + 2))
     # The first frame is labelled by the learnt classes, exactly as the core does, at the
     # working resolution (half the 640-pixel frame), with the parameters' lengths scaled.
     width = 320  # the node's default working_width
@@ -78,6 +85,9 @@ def test_skin_node_labels_colour_frames_and_reports_grey_ones() -> None:
     assert np.count_nonzero(received[0] & truth) > 0.85 * np.count_nonzero(truth)
     assert extra['adaptations'] == len(frames)  # the skin inside the contour adapted the classes
     assert not received[len(frames)].any() and extra['frames_grey'] == 1 and state == 'OK'
+    # A grey frame is a warning in /diagnostics (WARN level) while grey frames come.
+    assert warning_while_grey is not None and warning_while_grey.startswith('GREY_INPUT')
+    assert warning_after is None
 
 
 def _header(index: int) -> Header:

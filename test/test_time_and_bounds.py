@@ -6,6 +6,7 @@ import time
 
 import numpy as np
 import rclpy
+from conftest import BAGS
 from rclpy.parameter import Parameter
 
 from human_tracker.evaluation.metrics import summarise
@@ -25,7 +26,7 @@ def _header(message, seconds: float):
 
 def test_after_a_gap_motion_restarts_the_filter_where_the_person_now_is() -> None:
     """head_basic frames 0-30, then nothing for 5 s, then frames 70-100 (the person moved away)."""
-    frames = list(read_frames('bags/head_basic'))
+    frames = list(read_frames(str(BAGS / 'head_basic')))
     images = [message_to_bgr8(f.message) for f in frames]
     rclpy.init()
     node = TrackerNode(subscribe_image=False)
@@ -51,7 +52,7 @@ def test_after_a_gap_motion_restarts_the_filter_where_the_person_now_is() -> Non
 
 
 def test_frames_waiting_for_masks_that_never_come_stay_bounded_and_counted() -> None:
-    frames = list(read_frames('bags/head_basic'))[:40]
+    frames = list(read_frames(str(BAGS / 'head_basic')))[:40]
     rclpy.init()
     overrides = [
         Parameter('motion_input', value='foreground'),
@@ -79,7 +80,7 @@ def test_frames_waiting_for_masks_that_never_come_stay_bounded_and_counted() -> 
 
 def test_frames_that_never_reach_the_tracker_are_counted_from_their_masks() -> None:
     """Masks of frames 0-9 arrive; the images of 4 and 7 never do, and the mask of 8 comes late."""
-    frames = list(read_frames('bags/head_basic'))[:10]
+    frames = list(read_frames(str(BAGS / 'head_basic')))[:10]
     rclpy.init()
     overrides = [Parameter('motion_input', value='foreground'), Parameter('match_timeout', value=0.05)]
     node = TrackerNode(parameter_overrides=overrides)
@@ -110,7 +111,7 @@ def test_frames_that_never_reach_the_tracker_are_counted_from_their_masks() -> N
 
 def test_a_mask_of_another_frame_shape_is_counted_and_the_frame_tracked_without_it() -> None:
     """A mask at any resolution of the frame is used; one of another shape is rejected, counted."""
-    frames = list(read_frames('bags/head_basic'))[:3]
+    frames = list(read_frames(str(BAGS / 'head_basic')))[:3]
     rclpy.init()
     node = TrackerNode(subscribe_image=False)
     results = []

@@ -328,6 +328,22 @@ def ground_truth_target(path: str | Path) -> str | None:
     return topics[0][len(prefix) :] if topics else None
 
 
+def camera_frame_count(path: str | Path) -> int | None:
+    """How many frames the bag's first camera topic holds (as :func:`read_frames` reads it), or
+    None where the bag's index does not say.
+
+    Raises:
+        BagError: The bag is missing or unreadable.
+    """
+    path = Path(path)
+    try:
+        with open_bag(path) as reader:
+            counts = [getattr(c, 'msgcount', 0) for c in reader.connections if c.msgtype in _IMAGE_TYPES]
+    except (AnyReaderError, ReaderError, OSError) as err:
+        raise BagError(f'cannot read bag {path}: {err}') from err
+    return counts[0] if counts and counts[0] > 0 else None
+
+
 def read_frames(path: str | Path, *, camera_topic: str | None = None, target: str | None = None) -> Iterator[BagFrame]:
     """Iterate over the camera frames of a bag with their ground truth matched by stamp.
 

@@ -27,12 +27,26 @@ class FrameSource:
         fps: Nominal frame rate, Hz (the video's own, or 30 for folders and unknown rates).
         capture: The OpenCV capture for devices and videos, None for folders.
         files: The sorted image files of a folder, empty otherwise.
+        announced: Frames a video file's header announces; 0 for devices and folders.
+        read: Frames read from the capture so far.
     """
 
     name: str
     fps: float
     capture: cv2.VideoCapture | None = None
     files: tuple[Path, ...] = ()
+    announced: int = 0
+    read: int = 0
+
+    @property
+    def length(self) -> int | None:
+        """Frames expected: a folder's images, a video's announced count; None for a device."""
+        return len(self.files) if self.capture is None else self.announced or None
+
+    @property
+    def truncated(self) -> bool:
+        """Whether a video ended before the frames its header announces (read to its end)."""
+        return self.capture is not None and 0 < self.read < self.announced
 
     def __iter__(self) -> Iterator[np.ndarray | None]:
         """The frames in order, ``(H, W, 3) uint8`` BGR; None for a folder image that cannot be read."""
@@ -41,6 +55,7 @@ class FrameSource:
                 ok, image = self.capture.read()
                 if not ok:
                     return
+                self.read += 1
                 yield image if image.ndim == 3 else cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
         for path in self.files:
             # One unreadable file must not end the sequence: the caller counts it.
@@ -78,7 +93,8 @@ def open_frames(source: str | Path) -> FrameSource:
     if not capture.isOpened():
         raise FrameSourceError(f'cannot open {text}')
     fps = capture.get(cv2.CAP_PROP_FPS)
-    return FrameSource(text, fps if 0 < fps < 1000 else 30.0, capture=capture)
+    announced = int(capture.get(cv2.CAP_PROP_FRAME_COUNT)) if path.is_file() else 0
+    return FrameSource(text, fps if 0 < fps < 1000 else 30.0, capture=capture, announced=max(announced, 0))
 
 
 def _images_in(folder: Path) -> tuple[Path, ...]:

@@ -7,17 +7,28 @@ for a frame that is not annotated.
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from human_tracker.io.bags import BagError, ground_truth_target, read_frames
+from human_tracker.io.bags import BagError, camera_frame_count, ground_truth_target, read_frames
 from human_tracker.io.frames import FrameSourceError, open_frames
 from human_tracker.io.images import ImageConversionError, message_to_bgr8
 
-__all__ = ['SequenceError', 'SequenceFrame', 'Sequence', 'open_sequence', 'read_groundtruth', 'write_groundtruth']
+_LOG = logging.getLogger(__name__)
+
+__all__ = [
+    'SequenceError',
+    'SequenceFrame',
+    'Sequence',
+    'open_sequence',
+    'sequence_name',
+    'read_groundtruth',
+    'write_groundtruth',
+]
 
 Box = tuple[float, float, float, float]
 
@@ -48,12 +59,17 @@ class Sequence:
 
     ``target`` is ``head`` or ``hand`` for a bag with ground truth, ``person`` for one with
     several tracks (:func:`~human_tracker.io.bags.ground_truth_target`), None otherwise.
+    ``length`` is the number of frames expected (None: unknown). ``warnings`` collects, as the
+    frames are read, what the reader found wrong (a video shorter than its header says); each
+    is also logged.
     """
 
     name: str
     fps: float
     path: Path
     target: str | None = None
+    length: int | None = None
+    warnings: list[str] = field(default_factory=list)
 
     def __iter__(self) -> Iterator[SequenceFrame]:
         try:
@@ -74,10 +90,19 @@ class Sequence:
                     box = truth[index] if index < len(truth) else None
                     reason = '' if image is not None else f'cannot read image {source.files[index]}'
                     yield SequenceFrame(index, int(round(index * 1e9 / self.fps)), image, box, reason)
+                if source.truncated:
+                    self._warn(
+                        f'{self.path}: {source.read} frames read of the {source.announced} its header announces '
+                        '(the file is truncated or damaged)'
+                    )
             finally:
                 source.close()
         except (BagError, FrameSourceError) as err:
             raise SequenceError(str(err)) from err
+
+    def _warn(self, message: str) -> None:
+        self.warnings.append(message)
+        _LOG.warning(message)
 
 
 def _is_bag(path: Path) -> bool:
@@ -97,17 +122,26 @@ def open_sequence(path: str | Path) -> Sequence:
         raise SequenceError(f'{path} does not exist')
     if _is_bag(path):
         try:
-            target = ground_truth_target(path)
+            target, length = ground_truth_target(path), camera_frame_count(path)
         except BagError as err:
             raise SequenceError(str(err)) from err
-        return Sequence(path.stem if path.is_file() else path.name, 30.0, path, target)
+        return Sequence(sequence_name(path), 30.0, path, target, length)
     try:
         source = open_frames(path)
     except FrameSourceError as err:
         raise SequenceError(str(err)) from err
-    fps = source.fps
+    fps, length = source.fps, source.length
     source.close()
-    return Sequence(path.stem if path.is_file() else path.name, fps, path)
+    return Sequence(sequence_name(path), fps, path, length=length)
+
+
+def sequence_name(path: Path) -> str:
+    """A sequence's name: its file's stem, or its folder's name (the parent's for the ``img/``
+    folder of a benchmark sequence, whose name is the parent's)."""
+    if path.is_file():
+        return path.stem
+    path = path.resolve()
+    return path.parent.name if path.name == 'img' and path.parent.name else path.name
 
 
 def read_groundtruth(path: Path) -> list[Box | None]:

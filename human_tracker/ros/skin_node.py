@@ -101,6 +101,7 @@ class SkinNode(ImageStage):
         self.segmenter = SkinSegmenter(model, parameters, rate, drift)
         self.working_width = declare_working_width(self)
         self.grey_frames = 0
+        self.last_frame_grey = False
         self.adaptations = 0
         self.contour: np.ndarray | None = None  # the tracker's latest contour, pixels
         self.skin_pub = self.create_publisher(Image, 'skin', RESULT_QOS)
@@ -143,11 +144,13 @@ class SkinNode(ImageStage):
 
     def handle_frame(self, image: np.ndarray, header: Any) -> np.ndarray:
         """Skin labels of one frame, published under ``header``."""
-        if not has_colour(image):
+        self.last_frame_grey = not has_colour(image)
+        if self.last_frame_grey:
             # A grey-level camera has no chromaticity: say so, and publish empty labels so
             # that a tracker waiting for this frame's skin labels is not held up.
+            if self.grey_frames == 0:
+                self.get_logger().warn('grey-level image: no skin can be found without colour')
             self.grey_frames += 1
-            self.get_logger().warn('grey-level image: no skin can be found without colour', throttle_duration_sec=10.0)
             skin = np.zeros(working_shape(image.shape, self.working_width), dtype=np.uint8)
         else:
             scale = working_scale(image.shape[1], self.working_width)
@@ -163,8 +166,10 @@ class SkinNode(ImageStage):
         return skin
 
     def diagnostics_state(self) -> tuple[str, dict[str, Any]]:
-        state = 'GREY_INPUT' if self.grey_frames and self.grey_frames == self.counters.processed else 'OK'
-        return state, {'frames_grey': self.grey_frames, 'adaptations': self.adaptations}
+        return 'OK', {'frames_grey': self.grey_frames, 'adaptations': self.adaptations}
+
+    def input_warning(self) -> str | None:
+        return 'GREY_INPUT: the image has no colour: no skin can be found' if self.last_frame_grey else None
 
 
 def main(args: list[str] | None = None) -> int:

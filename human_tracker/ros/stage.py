@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import rclpy
 import rclpy.logging
-from diagnostic_msgs.msg import DiagnosticArray
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import ParameterException
@@ -426,12 +426,20 @@ class ImageStage(LifecycleNode):
         """The state word and extra key-values for /diagnostics."""
         return 'OK', {}
 
+    def input_warning(self) -> str | None:
+        """What is wrong with the input now (``/diagnostics`` says it at WARN level); None: nothing."""
+        return None
+
     def _publish_diagnostics(self) -> None:
         state, extra = self.diagnostics_state()
         extra = {'ready': self.ready, 'threads': self.threads, 'time_resets': self.time_resets, **extra}
         if self.configuration_problems:
             extra['configuration'] = '; '.join(self.configuration_problems)
-        status = diagnostic_status(self, self.counters, self.timer_stats, state=state, extra=extra)
+        warning = self.input_warning()
+        level = None
+        if warning is not None:
+            extra['input'], level = warning, DiagnosticStatus.WARN
+        status = diagnostic_status(self, self.counters, self.timer_stats, state=state, level=level, extra=extra)
         publish_diagnostics(self, self.diagnostics_pub, [status])
 
 

@@ -57,6 +57,7 @@ from human_tracker.vision.camera import FIT_RESIDUAL_GAIN, metric_positions, pos
 from human_tracker.vision.depth import depth_image_to_metres, region_depth
 from human_tracker.vision.people import PersonTracker, TrackedTarget, kinds_of, primary_target, targets_line
 from human_tracker.vision.resolution import same_frame
+from human_tracker.vision.skin import has_colour
 from human_tracker.vision.target import LOST, TargetParameters, TargetResult, TargetTracker, parameters_for
 from human_tracker.vision.templates import make_template
 from human_tracker.vision.tracker import TrackerParameters, TrackEstimate, box_from_state, check_box_in_image
@@ -209,6 +210,9 @@ _TARGET_WIDTHS = {'head': 0.16, 'hand': 0.18}
 # How far behind its visible surface the target's centre lies, metres: a head is about 0.2 m
 # deep and the middle of the face about 8 cm in front of its centre; a hand is flat.
 _SURFACE_TO_CENTRE = {'head': 0.08, 'hand': 0.01}
+
+
+GREY_INPUT_TEXT = 'the image has no colour (a grey-level camera?): no skin can be found, so no hand is followed'
 
 
 class TrackerNode(ImageStage):
@@ -370,7 +374,7 @@ class TrackerNode(ImageStage):
         )
         self.status_pub = self.create_publisher(DiagnosticArray, 'status', LATCHED_QOS)
         self.status_header = Header()
-        self.status_sent: tuple[str, str] | None = None
+        self.status_sent: tuple[str, str, bool] | None = None
         self.create_timer(status_period, self._publish_status, clock=self.steady_clock)
         self.requested_box: tuple[float, float, float, float] | None = None
         self.create_subscription(RegionOfInterest, 'init_roi', self._on_init_roi, RESULT_QOS)
@@ -413,6 +417,8 @@ class TrackerNode(ImageStage):
             for topic in self.mask_topics
         ]
         self.frames_without_depth_reading = 0
+        self.frames_without_colour = 0
+        self.last_frame_grey = False
         self.last_distance: float | None = None  # measured on the last frame published
         if self.mask_topics:
             self.create_timer(0.02, self._drain, clock=self.steady_clock)
@@ -621,6 +627,8 @@ class TrackerNode(ImageStage):
             )
         interval = (stamp - self.last_tracked_ns) / 1e9 if self.last_tracked_ns >= 0 else 0.0
         self.last_tracked_ns = stamp
+        if self.uses_skin:
+            self._check_colour(image)
         size = image.shape[:2]
         motion = self._of_frame(motion, size, 'mask', 'mask_size')
         skin = self._of_frame(skin, size, 'skin labels', 'skin_size')
@@ -695,6 +703,17 @@ class TrackerNode(ImageStage):
                     draw_target(debug, outcome.id, f'{outcome.kind} {outcome.id}', other.contour, other.box)
             self.debug_pub.publish(array_to_image(debug, 'bgr8', header))
         return result
+
+    def _check_colour(self, image: np.ndarray) -> None:
+        """Count a frame without colour (a hand's skin cannot be found in it); say so at the first."""
+        grey = not has_colour(image)
+        if grey and self.frames_without_colour == 0:
+            self.get_logger().warn(GREY_INPUT_TEXT)
+        self.frames_without_colour += int(grey)
+        self.last_frame_grey = grey
+
+    def input_warning(self) -> str | None:
+        return f'GREY_INPUT: {GREY_INPUT_TEXT}' if self.last_frame_grey else None
 
     def _of_frame(self, mask: np.ndarray | None, size: tuple[int, ...], what: str, reason: str) -> np.ndarray | None:
         """``mask`` if it can be the frame of ``size`` at some resolution, else None (rejected as ``reason``).
@@ -844,16 +863,20 @@ class TrackerNode(ImageStage):
     def _publish_status(self) -> None:
         """The tracker's state and its cues' support, stamped with the last frame tracked."""
         state = self.primary.status
-        level = DiagnosticStatus.WARN if state == LOST else DiagnosticStatus.OK
-        status = node_status(self, state, self._target_values(), level=level)
+        values = self._target_values()
+        warning = self.input_warning()
+        if warning is not None:
+            values['input'] = warning
+        level = DiagnosticStatus.WARN if state == LOST or warning is not None else DiagnosticStatus.OK
+        status = node_status(self, state, values, level=level)
         self.status_pub.publish(DiagnosticArray(header=self.status_header, status=[status]))
         self.status_sent = self._status_key()
 
-    def _status_key(self) -> tuple[str, str]:
+    def _status_key(self) -> tuple[str, str, bool]:
         """What a status message is sent at once on a change of: the state and the shape (a
         hand opening or closing is a gesture)."""
         estimate = None if self.last_result is None else self.last_result.estimate
-        return self.primary.status, '' if estimate is None else estimate.shape
+        return self.primary.status, '' if estimate is None else estimate.shape, self.last_frame_grey
 
     def _target_values(self) -> dict[str, str]:
         """The last estimate's shape, confidence and per-cue support (empty without one)."""
@@ -878,6 +901,7 @@ class TrackerNode(ImageStage):
             'frames_motion_set_aside': self.frames_motion_set_aside,
             'frames_pending': len(self.pending),
             'frames_without_depth_reading': self.frames_without_depth_reading,
+            'frames_without_colour': self.frames_without_colour,
         }
         if self.start_problem is not None:
             extra['cannot_start'] = self.start_problem

@@ -235,11 +235,32 @@ def state_from_box(box: tuple[float, float, float, float], template: ContourTemp
 
 
 def check_box_in_image(box: tuple[float, float, float, float], shape: tuple[int, ...]) -> None:
-    """Raise ValueError unless the centre of ``box`` = (x, y, w, h) lies in an image of ``shape`` (H, W, ...)."""
+    """Raise ValueError unless the centre of ``box`` = (x, y, w, h) lies in an image of ``shape`` (H, W, ...).
+
+    A box partly outside the image is taken (a person at the frame's edge): the filter starts
+    from the box's centre and size. The message of a refused box says where its centre lies.
+    """
     x, y, w, h = (float(v) for v in box)
     height, width = shape[:2]
-    if not (0 <= x + w / 2 < width and 0 <= y + h / 2 < height):
-        raise ValueError(f'the box {x:g},{y:g},{w:g},{h:g} lies outside the {width}x{height} image')
+    cx, cy = x + w / 2, y + h / 2
+    if 0 <= cx < width and 0 <= cy < height:
+        return
+    sides = [
+        side
+        for side, out in (
+            ('left of x=0', cx < 0),
+            (f'right of x={width}', cx >= width),
+            ('above y=0', cy < 0),
+            (f'below y={height}', cy >= height),
+        )
+        if out
+    ]
+    whole = x + w <= 0 or x >= width or y + h <= 0 or y >= height
+    part = 'no part of the box is in it' if whole else 'part of the box is in it, but the filter starts from the centre'
+    raise ValueError(
+        f'the box {x:g},{y:g},{w:g},{h:g} has its centre ({cx:g}, {cy:g}) {" and ".join(sides)}: outside the '
+        f'{width}x{height} image ({part})'
+    )
 
 
 def box_from_state(state: np.ndarray, template: ContourTemplate) -> tuple[float, float, float, float]:

@@ -19,6 +19,7 @@ REPO = Path(__file__).resolve().parents[1]
 BAGS = REPO / 'bags'
 HEAD_BAG = BAGS / 'head_basic'
 REAL_DATA = REPO.parent / 'shared' / 'data' / 'real'
+DLIB_MISSING = 'the face detector (dlib) is a dependency of the head tracker: pip install dlib-bin (see README)'
 
 
 @pytest.fixture

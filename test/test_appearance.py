@@ -18,14 +18,15 @@ from human_tracker.vision.appearance import (
     region_histograms,
 )
 from human_tracker.vision.boxes import BoxRelation
-from human_tracker.vision.faces import FACE_ON_HEAD, Detection, FaceDetector, _overlap, face_detector_available
+from human_tracker.vision.faces import FACE_ON_HEAD, Detection, FaceDetector, _overlap
+from human_tracker.vision.lifecycle import TRACKING
 from human_tracker.vision.proposals import (
     detection_log_likelihood,
     draw_with_proposals,
     log_prior_density,
     log_proposal_density,
 )
-from human_tracker.vision.target import FRESH_FACE_FRAMES, TRACKING, TargetParameters, TargetTracker
+from human_tracker.vision.target import FRESH_FACE_FRAMES, TargetParameters, TargetTracker
 from human_tracker.vision.templates import head_and_shoulders
 from human_tracker.vision.tracker import TrackEstimate
 
@@ -192,7 +193,6 @@ def test_detection_likelihood_by_hand() -> None:
     assert np.all(detection_log_likelihood(states, detections, spread, 1.0) == 0.0)
 
 
-@pytest.mark.skipif(not face_detector_available(), reason='dlib is not installed')
 @pytest.mark.skipif(not (REAL / 'trellis').is_dir(), reason='real sequences absent')
 def test_face_detector_finds_a_face_in_shadow() -> None:
     """trellis, frame 100: a face in shadow against the bright street, found after the local
@@ -205,7 +205,6 @@ def test_face_detector_finds_a_face_in_shadow() -> None:
     assert np.hypot(x + w / 2 - truth[0] - truth[2] / 2, y + h / 2 - truth[1] - truth[3] / 2) < 0.3 * truth[2]
 
 
-@pytest.mark.skipif(not face_detector_available(), reason='dlib is not installed')
 @pytest.mark.skipif(not (REAL / 'interview_alberto').is_dir(), reason='real sequences absent')
 def test_face_detector_finds_the_face_on_a_real_frame() -> None:
     frame = sorted((REAL / 'interview_alberto' / 'img').iterdir())[0]
@@ -303,7 +302,6 @@ def test_box_overlap_by_hand() -> None:
     assert _overlap((0.0, 0.0, 10.0, 10.0), (20.0, 0.0, 10.0, 10.0)) == 0.0
 
 
-@pytest.mark.skipif(not face_detector_available(), reason='dlib is not installed')
 @pytest.mark.skipif(not (REAL / 'interview_alberto').is_dir(), reason='real sequences absent')
 def test_a_face_localised_over_zooms_moves_less_with_the_crop() -> None:
     """The same face found from crops of a few different predicted sizes jumps by a tenth of its

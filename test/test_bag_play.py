@@ -1,4 +1,5 @@
-"""bag_play over real DDS: recorded QoS, --topics, --remap, --start-paused and ~/resume."""
+"""bag_play over real DDS: recorded QoS, --topics, --remap, --start-paused, --start-offset,
+~/pause and ~/resume."""
 
 from __future__ import annotations
 
@@ -94,6 +95,62 @@ def test_start_paused_resume_topics_remap_and_recorded_qos(tmp_path) -> None:
         player.stop()
     assert received == stamps
     assert np.all(np.diff(received) > 0)
+
+
+def test_start_offset_skips_the_bag_s_beginning_and_pause_holds_the_rest(tmp_path) -> None:
+    """--start-offset 0.09 s: the frames from 0.1 s on (frames 3-7); at a tenth of the rate, a
+    pause after two of them publishes nothing for a second, then resume plays the rest."""
+    stamps = _write_bag(tmp_path / 'bag')
+    args = [
+        str(tmp_path / 'bag'),
+        '--start-offset',
+        '0.09',
+        '--rate',
+        '0.1',
+        '--topics',
+        '/cam/image',
+        '--start-paused',
+    ]
+    player = NodeProcess('human_tracker.ros.bag_play', args, environment(), tmp_path / 'bag_play.log')
+    rclpy.init()
+    node = Node('bag_play_test')
+    received: list[int] = []
+    node.create_subscription(
+        Image,
+        '/cam/image',
+        lambda m: received.append(m.header.stamp.sec * 10**9 + m.header.stamp.nanosec),
+        QoSProfile(depth=50, reliability=ReliabilityPolicy.BEST_EFFORT),
+    )
+    pause, resume = (node.create_client(Trigger, f'/bag_play/{name}') for name in ('pause', 'resume'))
+
+    def spin(seconds: float, until=lambda: False) -> None:
+        deadline = time.monotonic() + seconds
+        while not until() and time.monotonic() < deadline:
+            rclpy.spin_once(node, timeout_sec=0.02)
+
+    try:
+        player.start()
+        assert pause.wait_for_service(timeout_sec=30.0) and resume.wait_for_service(timeout_sec=30.0)
+        future = resume.call_async(Trigger.Request())
+        rclpy.spin_until_future_complete(node, future, timeout_sec=10.0)
+        spin(30.0, lambda: len(received) >= 2)
+        future = pause.call_async(Trigger.Request())
+        rclpy.spin_until_future_complete(node, future, timeout_sec=10.0)
+        assert future.result().success
+        spin(0.05)  # a frame on its way when the pause came
+        held = len(received)
+        spin(1.0)
+        during_pause = len(received) - held
+        future = resume.call_async(Trigger.Request())
+        rclpy.spin_until_future_complete(node, future, timeout_sec=10.0)
+        spin(30.0, lambda: len(received) >= len(stamps) - 3)
+        assert player.wait(20.0) == 0, player.output()
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+        player.stop()
+    assert during_pause == 0
+    assert received == stamps[3:]
 
 
 def test_missing_bag_is_a_clear_error(tmp_path) -> None:

@@ -9,7 +9,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from conftest import REAL_DATA, REPO
+from conftest import DLIB_MISSING, REAL_DATA, REPO
 
 from human_tracker.cli import main
 from human_tracker.io.bags import read_frames
@@ -20,13 +20,12 @@ from human_tracker.scenes.generator import PEOPLE_TARGETS, SCENES, render_scene
 from human_tracker.vision.background import BackgroundModel
 from human_tracker.vision.boxes import box_centre, centre_within
 from human_tracker.vision.faces import FACE_ON_HEAD, Detection
+from human_tracker.vision.lifecycle import LOST, TRACKING
 from human_tracker.vision.people import SAME_REGION, PersonTracker, TrackedTarget, kinds_of, primary_target
 from human_tracker.vision.resolution import to_working
 from human_tracker.vision.skin import SkinParameters, SkinSegmenter, default_skin_model
 from human_tracker.vision.target import (
     FRESH_FACE_FRAMES,
-    LOST,
-    TRACKING,
     SharedFrames,
     TargetResult,
     TargetTracker,
@@ -156,8 +155,7 @@ def test_the_hand_keeps_off_the_face_found_on_the_head() -> None:
     for max_people in (2, 1):
         person = PersonTracker(('head', 'hand'), TrackerParameters(seed=0), max_people=max_people)
         head, hand = person.first('head'), person.first('hand')
-        if head.detector is None:
-            pytest.skip('dlib is not installed')
+        assert head.detector is not None, DLIB_MISSING
         first, image = frames[0]
         head.initialise_from_box(first.ground_truth)
         person.process(image)
@@ -254,8 +252,7 @@ def test_a_later_persons_head_needs_a_face_and_a_hand_its_persons_head() -> None
     above it."""
     people = PersonTracker(('head', 'hand'), max_people=2)
     first, second = people.slot('head'), people.slot('person_2/head')
-    if second.tracker.detector is None:
-        pytest.skip('dlib is not installed')
+    assert second.tracker.detector is not None, DLIB_MISSING
     result = TargetResult('TRACKING', _estimate(300.0, 60.0), initialised=True)
     assert people._identify(second, result).status == 'LOST' and second.id == 0
     second.tracker.last_face, second.tracker.frames_without_own_face = (290.0, 50.0, 20.0, 20.0), 0
@@ -336,7 +333,8 @@ def test_a_real_person_head_and_hand_start_by_themselves(tmp_path) -> None:
     print(summary['precision_20px'], summary['targets'], {k: summary[k] for k in ('mota', 'idf1', 'id_switches')})
     assert next(i for i, r in enumerate(heads) if r['id']) < 5
     assert next(i for i, r in enumerate(hands) if r['id']) < 30
-    assert summary['scored_kind'] == 'hand' and summary['precision_20px'] >= 0.3
+    # Issue 16's goal for the hand of a person started by itself (0.663 measured at seed 0).
+    assert summary['scored_kind'] == 'hand' and summary['precision_20px'] >= 0.6
 
 
 def test_two_people_crossing_are_scored_track_by_track(tmp_path) -> None:

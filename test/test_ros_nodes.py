@@ -582,7 +582,9 @@ def test_a_box_on_init_roi_starts_the_tracker_and_reset_forgets_it(tmp_path, hea
     )
     player = NodeProcess(
         'human_tracker.ros.bag_play',
-        [str(bag), '--rate', '2.0', '--wait-for-subscribers', COMPRESSED_CAMERA_TOPIC, '1'],
+        # Once the tracker is ready: frames sent while it warmed up reached it in a burst, and
+        # the collector, on a loaded machine, missed poses of it (keep-last 10).
+        [str(bag), '--rate', '2.0', '--wait-for-ready', '/tracker_node'],
         env,
         tmp_path / 'bag_play.log',
     )

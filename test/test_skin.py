@@ -408,7 +408,7 @@ def test_skin_labels_on_real_photos_with_pixel_masks() -> None:
     print(f'HGR skin labels: {scores}')
     assert scores['photos'] == 178
     assert scores['precision'] >= 0.85 and scores['recall'] >= 0.85
-    assert 0.0 < scores['mean_photo_f1'] <= 1.0
+    assert scores['mean_photo_f1'] >= 0.8  # 0.829 measured: a few photos of hands on skin-coloured walls are poor
     # Seeds grown by hysteresis: the skin the cells miss, at some precision (0.95 / 0.75
     # measured: brightened, HGR's hands clip, and shirts of a near colour join them).
     pixels = labelled_photo_scores(HGR, parameters=SkinParameters(regions='pixels'))

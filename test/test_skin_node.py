@@ -63,13 +63,13 @@ def test_skin_node_labels_colour_frames_and_reports_grey_ones() -> None:
         while len(received) < len(frames) + 1 and time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.05)
         state, extra = node.diagnostics_state()
-        warning_while_grey = node.input_warning()
+        warning_while_grey = node.warnings()
         # Colour again: the warning goes.
         images.publish(array_to_image(frames[1].image, 'bgr8', _header(len(frames) + 1)))
         deadline = time.monotonic() + 30.0
         while len(received) < len(frames) + 2 and time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.05)
-        warning_after = node.input_warning()
+        warning_after = node.warnings()
     finally:
         executor.shutdown()
         node.destroy_node()
@@ -86,8 +86,8 @@ def test_skin_node_labels_colour_frames_and_reports_grey_ones() -> None:
     assert extra['adaptations'] == len(frames)  # the skin inside the contour adapted the classes
     assert not received[len(frames)].any() and extra['frames_grey'] == 1 and state == 'OK'
     # A grey frame is a warning in /diagnostics (WARN level) while grey frames come.
-    assert warning_while_grey is not None and warning_while_grey.startswith('GREY_INPUT')
-    assert warning_after is None
+    assert len(warning_while_grey) == 1 and warning_while_grey[0].startswith('GREY_INPUT')
+    assert warning_after == []
 
 
 def _header(index: int) -> Header:

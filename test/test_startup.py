@@ -164,7 +164,7 @@ def test_bad_parameter_files_and_ros_arguments_give_one_line_and_exit_2(name: st
     cases = {
         'missing file': (['--ros-args', '--params-file', str(tmp_path / 'missing.yaml')], 'does not exist'),
         'unparseable file': (['--ros-args', '--params-file', str(broken)], 'is not valid YAML'),
-        'malformed -p': (['--ros-args', '-p', 'num_particles'], 'invalid ROS arguments'),
+        'malformed -p': (['--ros-args', '-p', 'num_particles'], '-p num_particles: expected NAME:=VALUE'),
         'unknown ROS argument': (['--ros-args', '--bogus'], 'unknown ROS arguments'),
     }
     for case, (args, reason) in cases.items():
@@ -172,4 +172,5 @@ def test_bad_parameter_files_and_ros_arguments_give_one_line_and_exit_2(name: st
         ours = [line for line in err.splitlines() if line.startswith(f'{name}: ')]
         assert code == 2, (case, err)
         assert len(ours) == 1 and reason in ours[0], (case, err)
+        assert len(err.strip().splitlines()) == 1, (case, err)  # nothing else: not rcl's own error line
         assert 'Traceback' not in err + out, (case, err)

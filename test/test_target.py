@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 import pytest
-from conftest import REAL_DATA, REPO
+from conftest import DLIB_MISSING, REAL_DATA, REPO
 
 from human_tracker.evaluation.metrics import centre_errors, summarise
 from human_tracker.io.bags import read_frames
@@ -252,8 +252,7 @@ def test_the_face_detector_slows_down_when_it_finds_no_face() -> None:
     counted here where the runs happen.)"""
     parameters = TargetParameters(detect_every=5, patient_every=20, detector_thread=False)
     tracker = TargetTracker(head_and_shoulders(), TrackerParameters(seed=0), parameters)
-    if tracker.detector is None:
-        pytest.skip('dlib is not installed')
+    assert tracker.detector is not None, DLIB_MISSING
     runs = []
     detect, detect_near = tracker.detector.detect, tracker.detector.detect_near
     tracker.detector.detect = lambda *a, **k: runs.append(tracker.frames) or detect(*a, **k)
@@ -269,8 +268,7 @@ def test_a_target_found_by_itself_looks_for_its_face_on_the_whole_frame_after_on
     """Near the predicted face for three runs without it when the target was started from a box;
     after one when it was found by itself (its face is what makes it a head)."""
     tracker = TargetTracker(head_and_shoulders(), TrackerParameters(seed=0), TargetParameters())
-    if tracker.detector is None:
-        pytest.skip('dlib is not installed')
+    assert tracker.detector is not None, DLIB_MISSING
     calls = []
     tracker.detector.detect = lambda *a, **k: calls.append('frame') or []
     tracker.detector.detect_near = lambda *a, **k: calls.append('near') or []
@@ -299,8 +297,7 @@ def test_the_search_around_a_tracked_face_reaches_face_search_reach_sizes() -> N
     for reach in (2.0, 1.5):
         parameters = TargetParameters(face_search_reach=reach)
         tracker = TargetTracker(head_and_shoulders(), TrackerParameters(seed=0), parameters)
-        if tracker.detector is None:
-            pytest.skip('dlib is not installed')
+        assert tracker.detector is not None, DLIB_MISSING
         crops = []
         tracker.detector.detect = lambda image, upsample, c=crops: c.append(image.shape) or []
         tracker.filter.initialise(np.array([160.0, 120.0, 50.0, 0.0]))
@@ -319,8 +316,7 @@ def test_a_lost_head_comes_back_on_edges_alone_only_without_a_face_detector(prop
     good frame, unless faces are its proposals: then only a face (or a moving region) brings
     it back, an edge fit being what slid onto clutter. The synthetic head has no face."""
     tracker = TargetTracker(head_and_shoulders(), TrackerParameters(seed=0), TargetParameters(proposals=proposals))
-    if proposals == 'faces' and tracker.detector is None:
-        pytest.skip('dlib is not installed')
+    assert proposals != 'faces' or tracker.detector is not None, DLIB_MISSING
     frames = _frames('head_basic')
     tracker.initialise_from_box(frames[0][0].ground_truth)
     statuses = []
@@ -344,8 +340,7 @@ def _face_tracker(found: list[list], detect_every: int = 5, detector_thread: boo
     one for good): the synthetic head has no face for dlib to find."""
     parameters = TargetParameters(detect_every=detect_every, detector_thread=detector_thread)
     tracker = TargetTracker(head_and_shoulders(), TrackerParameters(seed=0), parameters)
-    if tracker.detector is None:
-        pytest.skip('dlib is not installed')
+    assert tracker.detector is not None, DLIB_MISSING
     runs = iter(found)
 
     def detect(*args: object, **kwargs: object) -> list:
@@ -500,8 +495,7 @@ def test_the_detectors_thread_gives_the_same_track_however_slow_the_detector() -
 
     def run(delay: float) -> list[TargetResult]:
         tracker = TargetTracker(head_and_shoulders(), TrackerParameters(seed=0), TargetParameters())
-        if tracker.detector is None:
-            pytest.skip('dlib is not installed')
+        assert tracker.detector is not None, DLIB_MISSING
         near = tracker.detector.detect_near
         tracker.detector.detect_near = lambda *a, **k: time.sleep(delay) or near(*a, **k)
         tracker.initialise_from_box(tuple(truth[0]))

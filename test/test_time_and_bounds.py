@@ -51,6 +51,29 @@ def test_after_a_gap_motion_restarts_the_filter_where_the_person_now_is() -> Non
     assert summarise(boxes, [frames[i].ground_truth for i in after])['precision_20px'] >= 0.9
 
 
+def test_a_stall_of_the_node_s_own_is_not_reported_as_a_camera_gap() -> None:
+    """Two gaps of 5 s between stamps: across the first the process computed (its own stall:
+    the camera's frames were dropped meanwhile), across the second it idled (the camera
+    paused). Only the first is counted as a stall; both mark the target lost."""
+    images = [message_to_bgr8(f.message) for f in list(read_frames(str(BAGS / 'head_basic')))[:3]]
+    rclpy.init()
+    node = TrackerNode(subscribe_image=False)
+    try:
+        node.process_frame(images[0], _header(array_to_image(images[0], 'bgr8'), 0.0))
+        deadline = time.process_time() + 0.4
+        while time.process_time() < deadline:  # the node's own work, as a compilation would be
+            pass
+        node.process_frame(images[1], _header(array_to_image(images[1], 'bgr8'), 5.0))
+        stalls_after_busy = node.stalls
+        time.sleep(0.4)  # idle: the camera sent nothing
+        node.process_frame(images[2], _header(array_to_image(images[2], 'bgr8'), 10.0))
+        stalls_after_idle = node.stalls
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    assert (stalls_after_busy, stalls_after_idle) == (1, 1)
+
+
 def test_frames_waiting_for_masks_that_never_come_stay_bounded_and_counted() -> None:
     frames = list(read_frames(str(BAGS / 'head_basic')))[:40]
     rclpy.init()

@@ -49,6 +49,8 @@ from human_tracker.ros.startup import StartError, check_configuration, without_h
 
 __all__ = ['BagPlayer', 'main', 'message_class']
 
+_PAUSE_POLL = 0.01  # seconds between looks at the pause while a message waits for its time
+
 _DEFAULT_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST)
 
 
@@ -191,14 +193,17 @@ class BagPlayer(Node):
         for conn, timestamp, raw in guarded(
             self.reader.messages(connections=self.connections, start=start_ns), self.bag
         ):
-            if not self.playing.is_set():
-                paused_at = time.monotonic()
-                self.playing.wait()
-                wall_start += time.monotonic() - paused_at
-            due = wall_start + (timestamp - start_ns) / 1e9 / self.rate
-            delay = due - time.monotonic()
-            if delay > 0:
-                time.sleep(delay)
+            # Waited for in short steps: a pause asked for while a message waits for its time
+            # holds that message too.
+            while True:
+                if not self.playing.is_set():
+                    paused_at = time.monotonic()
+                    self.playing.wait()
+                    wall_start += time.monotonic() - paused_at
+                delay = wall_start + (timestamp - start_ns) / 1e9 / self.rate - time.monotonic()
+                if delay <= 0:
+                    break
+                time.sleep(min(delay, _PAUSE_POLL))
             if self.clock_pub is not None:
                 self.clock_pub.publish(Clock(clock=Time(nanoseconds=timestamp).to_msg()))
             self.publishers_by_id[conn.id].publish(bytes(raw))

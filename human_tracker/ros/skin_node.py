@@ -168,8 +168,9 @@ class SkinNode(ImageStage):
     def diagnostics_state(self) -> tuple[str, dict[str, Any]]:
         return 'OK', {'frames_grey': self.grey_frames, 'adaptations': self.adaptations}
 
-    def input_warning(self) -> str | None:
-        return 'GREY_INPUT: the image has no colour: no skin can be found' if self.last_frame_grey else None
+    def warnings(self) -> list[str]:
+        grey = ['GREY_INPUT: the image has no colour: no skin can be found'] if self.last_frame_grey else []
+        return super().warnings() + grey
 
 
 def main(args: list[str] | None = None) -> int:

@@ -426,19 +426,18 @@ class ImageStage(LifecycleNode):
         """The state word and extra key-values for /diagnostics."""
         return 'OK', {}
 
-    def input_warning(self) -> str | None:
-        """What is wrong with the input now (``/diagnostics`` says it at WARN level); None: nothing."""
-        return None
+    def warnings(self) -> list[str]:
+        """What is wrong now (a parameter ignored, an input without colour, a cue that cannot
+        run): ``/diagnostics`` says it, at WARN level."""
+        return list(self.configuration_problems)
 
     def _publish_diagnostics(self) -> None:
         state, extra = self.diagnostics_state()
         extra = {'ready': self.ready, 'threads': self.threads, 'time_resets': self.time_resets, **extra}
-        if self.configuration_problems:
-            extra['configuration'] = '; '.join(self.configuration_problems)
-        warning = self.input_warning()
+        warnings = self.warnings()
         level = None
-        if warning is not None:
-            extra['input'], level = warning, DiagnosticStatus.WARN
+        if warnings:
+            extra['warnings'], level = '; '.join(warnings), DiagnosticStatus.WARN
         status = diagnostic_status(self, self.counters, self.timer_stats, state=state, level=level, extra=extra)
         publish_diagnostics(self, self.diagnostics_pub, [status])
 

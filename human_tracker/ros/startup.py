@@ -30,6 +30,7 @@ __all__ = [
     'without_help',
     'parameter_files',
     'check_parameter_files',
+    'check_rules',
     'init_rclpy',
     'declare_strict',
     'undeclared_parameters',
@@ -113,8 +114,24 @@ def check_parameter_files(argv: Sequence[str]) -> list[Path]:
     return files
 
 
+_RULE_FLAGS = ('-p', '--param', '-r', '--remap')
+
+
+def check_rules(argv: Sequence[str]) -> None:
+    """Each ``-p`` / ``-r`` of the ROS arguments is followed by ``NAME:=VALUE``.
+
+    Raises:
+        StartError: One line naming the rule (rcl would log its own error besides).
+    """
+    ros = [*_ros_arguments(argv), '']
+    for flag, rule in zip(ros, ros[1:], strict=False):
+        if flag in _RULE_FLAGS and ':=' not in rule:
+            raise StartError(f'{flag} {rule}: expected NAME:=VALUE'.replace('  ', ' '))
+
+
 def init_rclpy(argv: Sequence[str], **kwargs: Any) -> None:
     """``rclpy.init`` with ``argv``; rcl's refusal of the ROS arguments becomes a :class:`StartError`."""
+    check_rules(argv)
     check_parameter_files(argv)
     try:
         rclpy.init(args=list(argv), **kwargs)

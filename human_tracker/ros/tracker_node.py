@@ -55,10 +55,11 @@ from human_tracker.ros.markers import cleared_markers, target_markers
 from human_tracker.ros.stage import DEFERRED, ImageStage, ParameterSpec, spin_node, stamp_ns
 from human_tracker.vision.camera import FIT_RESIDUAL_GAIN, metric_positions, position_covariance, undistort_pixels
 from human_tracker.vision.depth import depth_image_to_metres, region_depth
+from human_tracker.vision.lifecycle import LOST
 from human_tracker.vision.people import PersonTracker, TrackedTarget, kinds_of, primary_target, targets_line
 from human_tracker.vision.resolution import same_frame
 from human_tracker.vision.skin import has_colour
-from human_tracker.vision.target import LOST, TargetParameters, TargetResult, TargetTracker, parameters_for
+from human_tracker.vision.target import TargetParameters, TargetResult, TargetTracker, parameters_for
 from human_tracker.vision.templates import make_template
 from human_tracker.vision.tracker import TrackerParameters, TrackEstimate, box_from_state, check_box_in_image
 
@@ -350,6 +351,8 @@ class TrackerNode(ImageStage):
         )
 
         self.last_tracked_ns = -1
+        self.tracked_at = (time.monotonic(), time.process_time())  # when the last frame's tracking began: wall, CPU
+        self.stalls = 0  # gaps between frames of this node's own making
         self.last_result: TargetResult | None = None
         self.last_outcomes: list[TrackedTarget] = []
         # Frames waiting for their masks: stamp, arrival, image, header, the cues handed over with it,
@@ -475,6 +478,8 @@ class TrackerNode(ImageStage):
         rng = np.random.default_rng(0)
         blank = np.zeros((32, 32), dtype=np.uint8)
         for tracker in self.people.trackers:
+            if tracker.detector is not None:
+                tracker.detector.load()
             probe = TargetTracker(tracker.template, filter_parameters, tracker.parameters)
             probe.initialise_from_box((8.0, 8.0, 16.0, 16.0))  # a box: the appearance kernels run too
             probe.process(rng.integers(0, 256, (32, 32, 3), dtype=np.uint8), blank, blank)
@@ -617,15 +622,23 @@ class TrackerNode(ImageStage):
         """Run the tracker on one frame and publish what it found under ``header`` (``shared``:
         its working frames computed beforehand, :meth:`PersonTracker.process`)."""
         stamp = stamp_ns(header)
-        if self.last_tracked_ns >= 0 and stamp - self.last_tracked_ns > self.max_gap * 1e9:
+        interval = (stamp - self.last_tracked_ns) / 1e9 if self.last_tracked_ns >= 0 else 0.0
+        wall, cpu = time.monotonic(), time.process_time()
+        if interval > self.max_gap:
             # After a gap the dynamics predict nothing: let motion restart the filter.
             for tracker in self.people.trackers:
                 tracker.mark_lost()
-            self.get_logger().warn(
-                f'{(stamp - self.last_tracked_ns) / 1e9:.2f} s since the last frame: target marked lost',
-                throttle_duration_sec=5.0,
-            )
-        interval = (stamp - self.last_tracked_ns) / 1e9 if self.last_tracked_ns >= 0 else 0.0
+            # A camera that paused leaves this process idle; a stall of the process's own (a
+            # long computation) keeps it busy while the camera's frames are dropped. Measured
+            # from the start of the last frame tracked, so its own processing is included.
+            busy = (cpu - self.tracked_at[1]) / max(wall - self.tracked_at[0], 1e-6)
+            if busy > 0.5:
+                self.stalls += 1
+                cause = f'this node was busy for {interval:.2f} s (its own stall: frames were dropped meanwhile)'
+            else:
+                cause = f'{interval:.2f} s since the last frame (the camera paused, or frames were lost)'
+            self.get_logger().warn(f'{cause}: target marked lost', throttle_duration_sec=5.0)
+        self.tracked_at = (wall, cpu)
         self.last_tracked_ns = stamp
         if self.uses_skin:
             self._check_colour(image)
@@ -712,8 +725,14 @@ class TrackerNode(ImageStage):
         self.frames_without_colour += int(grey)
         self.last_frame_grey = grey
 
-    def input_warning(self) -> str | None:
-        return f'GREY_INPUT: {GREY_INPUT_TEXT}' if self.last_frame_grey else None
+    def warnings(self) -> list[str]:
+        """The base's, a face detector the targets cannot have (dlib missing: a tracker other
+        than the one configured), and a frame without colour for a hand."""
+        found = super().warnings()
+        found += sorted({t.proposals_problem for t in self.people.trackers if t.proposals_problem is not None})
+        if self.last_frame_grey:
+            found.append(f'GREY_INPUT: {GREY_INPUT_TEXT}')
+        return found
 
     def _of_frame(self, mask: np.ndarray | None, size: tuple[int, ...], what: str, reason: str) -> np.ndarray | None:
         """``mask`` if it can be the frame of ``size`` at some resolution, else None (rejected as ``reason``).
@@ -864,10 +883,10 @@ class TrackerNode(ImageStage):
         """The tracker's state and its cues' support, stamped with the last frame tracked."""
         state = self.primary.status
         values = self._target_values()
-        warning = self.input_warning()
-        if warning is not None:
-            values['input'] = warning
-        level = DiagnosticStatus.WARN if state == LOST or warning is not None else DiagnosticStatus.OK
+        warnings = self.warnings()
+        if warnings:
+            values['warnings'] = '; '.join(warnings)
+        level = DiagnosticStatus.WARN if state == LOST or warnings else DiagnosticStatus.OK
         status = node_status(self, state, values, level=level)
         self.status_pub.publish(DiagnosticArray(header=self.status_header, status=[status]))
         self.status_sent = self._status_key()
@@ -902,6 +921,7 @@ class TrackerNode(ImageStage):
             'frames_pending': len(self.pending),
             'frames_without_depth_reading': self.frames_without_depth_reading,
             'frames_without_colour': self.frames_without_colour,
+            'stalls': self.stalls,
         }
         if self.start_problem is not None:
             extra['cannot_start'] = self.start_problem

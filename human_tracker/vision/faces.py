@@ -77,6 +77,13 @@ class FaceDetector:
         # box 0.921 -> 0.955, without 0.853 -> 0.931.
         self._contrast = cv2.createCLAHE(clipLimit=4.0, tileGridSize=(4, 4))
 
+    def load(self) -> object:
+        """dlib's detector, built on first use (0.4 s): a node answering ``--help`` does not wait
+        for it, and a node's warm-up calls this before its first frame."""
+        if self._model is None:
+            self._model = self._dlib.get_frontal_face_detector()
+        return self._model
+
     def detect(self, image: np.ndarray, upsample: int = 1) -> list[Detection]:
         """Faces in ``image`` ``(H, W) uint8`` (or BGR), boxes in its pixels, best first.
 
@@ -85,11 +92,7 @@ class FaceDetector:
         """
         if image.ndim == 3:
             image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-        if self._model is None:
-            # Built on first use (0.4 s): a node answering --help or building its stages
-            # does not wait for it; the warm-up calls this before the first frame.
-            self._model = self._dlib.get_frontal_face_detector()
-        rectangles, scores, _ = self._model.run(self._contrast.apply(image), upsample, self.min_score)
+        rectangles, scores, _ = self.load().run(self._contrast.apply(image), upsample, self.min_score)
         found = [
             Detection((float(r.left()), float(r.top()), float(r.width()), float(r.height())), float(score))
             for r, score in zip(rectangles, scores, strict=True)

@@ -65,8 +65,8 @@ import numpy as np
 
 from human_tracker.vision.boxes import Box, box_centre, centre_within
 from human_tracker.vision.faces import FACE_ON_HEAD
+from human_tracker.vision.lifecycle import LOST
 from human_tracker.vision.target import (
-    LOST,
     SharedFrames,
     TargetParameters,
     TargetResult,

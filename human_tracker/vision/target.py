@@ -51,6 +51,7 @@ from human_tracker.vision.camera_motion import estimate_camera_motion, move_stat
 from human_tracker.vision.exposure import normalise_exposure
 from human_tracker.vision.faces import FACE_ON_HEAD, Detection, FaceDetector, face_detector_available
 from human_tracker.vision.initialisation import blobs, moments_state, state_from_scan, upper_end_state
+from human_tracker.vision.lifecycle import LOST, TRACKING, WAITING, Event, TrackState, transition
 from human_tracker.vision.measurement import edge_map
 from human_tracker.vision.morphology import disk
 from human_tracker.vision.particle_filter import gaussian_cloud
@@ -114,10 +115,6 @@ PATIENT_SEARCHES = 8
 # Frames without its face after which a head is weak when motion cannot support it: counted
 # in frames, not detector runs, which thin out when no face is found (PATIENT_SEARCHES).
 FACELESS_FRAMES = 30
-
-WAITING = 'WAITING'
-TRACKING = 'TRACKING'
-LOST = 'LOST'
 
 
 @dataclass
@@ -453,7 +450,7 @@ class TargetResult:
         detections: The detector's boxes (x, y, w, h, camera pixels) on this frame.
     """
 
-    status: str
+    status: TrackState
     estimate: TrackEstimate | None
     initialised: bool = False
     motion_set_aside: bool = False
@@ -479,7 +476,7 @@ class TargetTracker:
     template: ContourTemplate
     filter_parameters: TrackerParameters = field(default_factory=TrackerParameters)
     parameters: TargetParameters = field(default_factory=TargetParameters)
-    status: str = WAITING
+    status: TrackState = WAITING
     weak_frames: int = 0
     steady_frames: int = 0
     filter: ContourTracker = field(init=False)
@@ -578,18 +575,17 @@ class TargetTracker:
         self.started_from_box = True
         self._pending = None  # its faces belong to the frame before the box
         self.appearance = None
-        self.status = TRACKING
+        self.status = transition(self.status, Event.START)
         self.weak_frames = 0
 
     def mark_lost(self) -> None:
         """Declare the target lost (the next motion hypothesis may restart the filter)."""
-        if self.status == TRACKING:
-            self.status = LOST
+        self.status = transition(self.status, Event.MARK_LOST)
 
     def reset(self) -> None:
         """Forget the target; wait for motion or a box."""
         self.filter.reset()
-        self.status = WAITING
+        self.status = transition(self.status, Event.RESET)
         self.weak_frames = self.steady_frames = 0
         self.appearance = None
         self.box_relation = None
@@ -805,7 +801,7 @@ class TargetTracker:
                 self.appearance = AppearanceModel.learn(bins, states[restart], self._own_region(), p.appearance_parts)
                 appearance = self._appearance_term(bins)
             estimate = self.filter.step(edges, likelihood_motion, likelihood_skin, appearance, states)
-            self.status, self.weak_frames, initialised = TRACKING, 0, True
+            self.status, self.weak_frames, initialised = transition(self.status, Event.RESTART), 0, True
             face = detections[restart]
         if self.status == TRACKING:
             if head_faces is not None:
@@ -824,7 +820,7 @@ class TargetTracker:
             self.weak_frames, initialised = 0, True
             # A head whose face was seen is the head only once a face is found on it again.
             faced = p.proposals == 'faces' and self.face_relation is not None  # set only by a detected face
-            self.status = LOST if faced else TRACKING
+            self.status = transition(self.status, Event.START_UNCONFIRMED if faced else Event.START)
         shown = tuple(tuple(v / self.scale for v in d.box) for d in detections or ())
         if estimate is None:
             self.reported_state = None
@@ -872,7 +868,7 @@ class TargetTracker:
                 # it: once no hypothesis could beat its support.
                 self.appearance = AppearanceModel.learn(bins, working_state, self._own_region(), p.appearance_parts)
         if self.weak_frames >= p.lost_frames or seen_on_face:
-            self.status = LOST
+            self.status = transition(self.status, Event.LOSS)
         elif self.status == LOST and (
             (self.weak_frames == 0 and region is None and not (p.proposals == 'faces' and self.detector is not None))
             or (likelihood_skin is not None and self.steady_frames >= p.lost_frames)
@@ -883,7 +879,7 @@ class TargetTracker:
             # edge fit on clutter is not the person), or after as many steady frames as made it
             # lost when skin under the contour says so (skin labels flicker off a hand for a
             # few frames).
-            self.status = TRACKING
+            self.status = transition(self.status, Event.RECOVERY)
         if self.status == TRACKING and self.steady_frames >= p.lost_frames:
             # Only a size held as long as a loss takes: a contour that shrinks onto clutter
             # for a frame or two does not change the frame's size.

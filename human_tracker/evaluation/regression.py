@@ -1,0 +1,163 @@
+"""What the tracker does, recorded so that a refactor can show it changed nothing.
+
+``record`` runs ``track`` on every bundled bag and every real sequence (the target its
+ground truth outlines, from its first box and started by itself, and a person where a person
+is in view) with seeds 0-4, and writes the SHA-256 of each run's ``poses.csv`` with the run's
+precision; ``check`` runs them again and lists the runs whose poses differ. The file is a test
+fixture (``test/data/pose_hashes.json``): ``make test`` checks the bags at seed 0, ``make
+regression`` every run (about 25 minutes on two cores).
+
+The poses are the same to the last bit only on the processor and libraries they were recorded
+with (numba compiles for the host, whose instructions round differently; OpenCV's versions
+differ in their filters), so the record names them (:func:`platform`); elsewhere, record
+again from the commit before a change.
+
+    python -m human_tracker.evaluation.regression record --out test/data/pose_hashes.json
+    python -m human_tracker.evaluation.regression check --fixture test/data/pose_hashes.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import sys
+import tempfile
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+from human_tracker.io.sequences import open_sequence
+from human_tracker.offline import TrackOptions, track_sequence
+from human_tracker.vision.tracker import TrackerParameters
+
+__all__ = ['SEEDS', 'Run', 'runs', 'pose_hash', 'platform', 'record', 'check', 'main']
+
+SEEDS = (0, 1, 2, 3, 4)
+REPO = Path(__file__).resolve().parents[2]
+BAGS = REPO / 'bags'
+REAL = REPO.parent / 'shared' / 'data' / 'real'
+# Real sequences where a person's head and hands are in view: tracked as a person too.
+PEOPLE = ('hand2', 'seated_agbani', 'interview_alberto')
+
+
+@dataclass(frozen=True)
+class Run:
+    """One recorded run: an input, what is tracked, whether from the first box, the seed."""
+
+    source: Path
+    target: str
+    from_box: bool
+    seed: int
+
+    @property
+    def key(self) -> str:
+        """``<input>/<target>/<box|alone>/seed<N>``: the run's name in the fixture."""
+        return f'{self.source.name}/{self.target}/{"box" if self.from_box else "alone"}/seed{self.seed}'
+
+
+def runs(seeds: Iterable[int] = SEEDS, *, real: bool = True) -> Iterator[Run]:
+    """Every run of the record: the bags, then the real sequences present beside the repository."""
+    sources = sorted(p for p in BAGS.iterdir() if (p / 'metadata.yaml').exists())
+    if real and REAL.is_dir():
+        sources += sorted(_readable(p) for p in REAL.iterdir() if p.is_dir())
+    for source in sources:
+        sequence = open_sequence(source)
+        target = sequence.target or ('hand' if source.name == 'hand2' else 'head')
+        targets = [target] + (['person'] if source.name in PEOPLE else [])
+        for kind in targets:
+            boxed = kind != 'person' and _first_box(source) is not None
+            for from_box in (True, False) if boxed else (False,):
+                for seed in seeds:
+                    yield Run(source, kind, from_box, seed)
+
+
+def _readable(folder: Path) -> Path:
+    """A real sequence's folder, or the one video in it (``vtest/vtest.avi``)."""
+    videos = [p for p in folder.iterdir() if p.suffix in ('.avi', '.mp4')]
+    return videos[0] if len(videos) == 1 and not (folder / 'img').is_dir() else folder
+
+
+def _first_box(source: Path) -> tuple[float, ...] | None:
+    """The ground truth of frame 0 (the box a run from the first box starts from), or None."""
+    frame = next(iter(open_sequence(source)))
+    return frame.ground_truth
+
+
+def platform() -> str:
+    """The processor numba compiles for (LLVM's name of the host CPU), numpy's and OpenCV's versions."""
+    import cv2
+    import llvmlite.binding as llvm
+    import numpy as np
+
+    return f'{llvm.get_host_cpu_name()}, numpy {np.__version__}, OpenCV {cv2.__version__}'
+
+
+def pose_hash(poses: Path) -> str:
+    """SHA-256 of a ``poses.csv``: every pose, state and status, nothing of the machine's speed."""
+    return hashlib.sha256(poses.read_bytes()).hexdigest()
+
+
+def _track(run: Run, out: Path) -> dict[str, object]:
+    options = TrackOptions(
+        target=run.target,
+        init=_first_box(run.source) if run.from_box else None,
+        filter_parameters=TrackerParameters(seed=run.seed),
+        video=False,
+        progress=False,
+    )
+    summary = track_sequence(run.source, out, options)
+    precision = summary.get('precision_20px')
+    return {
+        'sha256': pose_hash(out / 'poses.csv'),
+        'precision_20px': None if precision is None else round(precision, 4),
+    }
+
+
+def record(selected: Iterable[Run]) -> dict[str, dict[str, object]]:
+    """Each run's pose hash and precision, by :attr:`Run.key`."""
+    found = {}
+    with tempfile.TemporaryDirectory() as scratch:
+        for run in selected:
+            found[run.key] = _track(run, Path(scratch) / 'out')
+            print(f'{run.key}: {found[run.key]}', file=sys.stderr, flush=True)
+    return found
+
+
+def check(fixture: dict[str, dict[str, object]], selected: Iterable[Run]) -> list[str]:
+    """The runs of ``selected`` whose poses differ from ``fixture`` (a missing key is a difference)."""
+    differ = []
+    for run in selected:
+        found = record([run])[run.key]
+        expected = fixture.get(run.key)
+        if expected is None or expected['sha256'] != found['sha256']:
+            before = None if expected is None else expected['precision_20px']
+            differ.append(f'{run.key}: precision {before} -> {found["precision_20px"]}')
+    return differ
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog='regression', description=__doc__.split('\n\n')[0])
+    parser.add_argument('command', choices=('record', 'check'))
+    parser.add_argument('--fixture', type=Path, default=REPO / 'test' / 'data' / 'pose_hashes.json')
+    parser.add_argument('--only', default='', help='only runs whose key contains this text')
+    options = parser.parse_args(argv)
+    selected = [run for run in runs() if options.only in run.key]
+    known = json.loads(options.fixture.read_text()) if options.fixture.exists() else {}
+    if options.command == 'record':
+        # Recorded runs join (or replace) those already in the fixture, on the same platform.
+        if known.get('platform', platform()) != platform():
+            known = {}
+        found = {'platform': platform(), 'runs': known.get('runs', {}) | record(selected)}
+        options.fixture.write_text(json.dumps(found, indent=1, sort_keys=True) + '\n')
+        return 0
+    if known.get('platform') != platform():
+        print(f'the record was made on {known.get("platform")}, this is {platform()}: record it again')
+        return 2
+    differ = check(known['runs'], selected)
+    print('\n'.join(differ) or f'{len(selected)} runs: the same poses')
+    return 1 if differ else 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

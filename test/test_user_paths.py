@@ -26,6 +26,7 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from ros_harness import environment, replay_and_collect
 from sensor_msgs.msg import CameraInfo, Image
 from std_srvs.srv import Trigger
+from test_optical_flow import _textured
 
 import human_tracker.ros.tracker_node as tracker_module
 from human_tracker.demo import node_arguments
@@ -73,14 +74,6 @@ def _header(message: Any, seconds: float, frame_id: str = 'camera_optical_frame'
     message.header.stamp.sec, message.header.stamp.nanosec = divmod(int(round(seconds * 1e9)), 10**9)
     message.header.frame_id = frame_id
     return message.header
-
-
-def _textured(seed: int = 0, shape: tuple[int, int] = (240, 320)) -> np.ndarray:
-    rng = np.random.default_rng(seed)
-    coarse = rng.uniform(0, 255, size=(shape[0] // 8, shape[1] // 8)).astype(np.float32)
-    return cv2.GaussianBlur(cv2.resize(coarse, shape[::-1], interpolation=cv2.INTER_CUBIC), (0, 0), 1.0).astype(
-        np.uint8
-    )
 
 
 def test_the_flow_node_takes_the_camera_rotation_it_is_sent() -> None:

@@ -21,7 +21,7 @@ _MERGE_DISTANCE_HELP = (
 )
 _COLOUR_BLUR_HELP = (
     'skin labels: Gaussian smoothing of the colours before they are read, sigma in pixels '
-    '(default 0: none; 1 helps a compressed camera, docs/evaluation.md)'
+    '(default 0: none; 1 helps a compressed camera, docs/decisions/skin-labels.md)'
 )
 
 

@@ -1,9 +1,9 @@
 """Offline tracking of a sequence, as fast as the machine allows (no ROS graph): the
 ``human_tracker track`` command.
 
-The same core as the nodes runs on every frame: the motion cue (background subtraction,
-optical flow or none), skin labels (§3.2, colour input only) and the
-:class:`~human_tracker.vision.target.TargetTracker`. Without
+The same cue stages and trackers as the nodes run on every frame, assembled the same way
+(:mod:`~human_tracker.vision.cues`): the motion cue (background subtraction, optical flow or
+none), skin labels (§3.2, colour input only) and the targets' trackers. Without
 an initial box the tracker starts by itself from motion (§2.5); with one, from that box in
 the first frame (the protocol of tracking benchmarks).
 """
@@ -26,15 +26,11 @@ from human_tracker.drawing import annotate, draw_target
 from human_tracker.evaluation.identity import identity_scores, one_track
 from human_tracker.evaluation.metrics import Box, summarise
 from human_tracker.evaluation.plots import plot_run
-from human_tracker.io.images import to_mono8
 from human_tracker.io.sequences import open_sequence
-from human_tracker.vision.background import BackgroundModel
-from human_tracker.vision.optical_flow import OpticalFlow
-from human_tracker.vision.people import PersonTracker, TrackedTarget, kinds_of, targets_line
-from human_tracker.vision.resolution import to_working, working_scale
+from human_tracker.vision.cues import MOTION_CUES, CueStages, build_people
+from human_tracker.vision.people import TrackedTarget, kinds_of, targets_line
 from human_tracker.vision.skin import SkinParameters, SkinSegmenter, default_skin_model, has_colour
-from human_tracker.vision.target import TargetParameters, parameters_for
-from human_tracker.vision.templates import make_template
+from human_tracker.vision.target_parameters import TargetParameters, parameters_for
 from human_tracker.vision.tracker import TrackerParameters, check_box_in_image
 
 __all__ = [
@@ -48,7 +44,7 @@ __all__ = [
     'track_sequence',
 ]
 
-CUES = ('background', 'flow', 'none')
+CUES = MOTION_CUES
 GREY_WARNING = (
     '{name}: frame {index} has no colour (a grey-level camera?): no skin can be found in it, so no hand is '
     'followed on such frames (frames_without_colour in summary.json)'
@@ -161,12 +157,13 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
         parameters = {
             k: replace(parameters.get(k) or parameters_for(k), working_width=options.working_width) for k in kinds
         }
-    people = PersonTracker(
-        kinds,
+    people = build_people(
+        target,
         options.filter_parameters,
         parameters,
-        {kinds[0]: make_template(kinds[0], template_file=options.template_file)},
-        max_people=options.max_people if target == 'person' else 1,
+        hands=options.hands,
+        max_people=options.max_people,
+        template_file=options.template_file,
     )
     names = [slot.name for slot in people.slots]
     kind_of = {slot.name: slot.kind for slot in people.slots}
@@ -174,9 +171,9 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
     init_kind = options.init_kind or (sequence.target if sequence.target in kinds else kinds[0])
     if init_kind not in kinds:
         raise ValueError(f'init_kind must be one of {", ".join(kinds)}, got {init_kind!r}')
-    background, flow = BackgroundModel(), OpticalFlow()
     use_skin = people.uses_skin if options.skin is None else options.skin
     segmenter = SkinSegmenter(default_skin_model(), options.skin_parameters) if use_skin else None
+    stages = CueStages.build(options.cue, segmenter, width)
     grey_frames = 0
     motion_set_aside = 0
     # By target slot (``head``, ``hand``, ``person_2/head``, ...): None or 0 where it did not run.
@@ -210,23 +207,9 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
                 table.writerow([frame.index, frame.stamp_ns, *[''] * 5, 'REJECTED', *[''] * _AFTER_STATUS])
                 continue
             start, cpu = time.perf_counter(), time.process_time()
-            gray = to_mono8(frame.image)
-            # The cues are computed at the working resolution, as the tracker fits there.
-            working = to_working(gray, width)
-            motion = (
-                background.apply(working)
-                if options.cue == 'background'
-                else flow.apply(working)[1]
-                if options.cue == 'flow'
-                else None
-            )
-            skin = None
-            if segmenter is not None and has_colour(frame.image):
-                skin = segmenter.segment(to_working(frame.image, width), working_scale(frame.image.shape[1], width))
-            elif segmenter is not None:
-                # No colour, no skin: empty labels, as the skin stage publishes. A hand is started
-                # and held by its skin, so none is followed (on grey frames one settled on blinds).
-                skin = np.zeros(working.shape, dtype=np.uint8)
+            if segmenter is not None and not has_colour(frame.image):
+                # No colour, no skin: empty labels (a hand is started and held by its skin, so
+                # none is followed: on grey frames one settled on blinds).
                 if grey_frames == 0:
                     sequence.warnings.append(GREY_WARNING.format(name=sequence.name, index=frame.index))
                     _LOG.warning(sequence.warnings[-1])
@@ -234,10 +217,7 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
             if frame.index == 0 and options.init is not None:
                 check_box_in_image(options.init, frame.image.shape)
                 people.initialise_from_box(options.init, init_kind)
-            # The camera's motion the background stage measured, in the camera's pixels.
-            shake = background.camera_motion_in(gray.shape[1]) if options.cue == 'background' else None
-            image = frame.image if frame.image.ndim == 3 else gray
-            outcomes = people.process(image, motion, skin, camera_motion=shake, stamp_ns=frame.stamp_ns)
+            outcomes = people.step(stages.evidence(frame.image, frame.stamp_ns))
             elapsed += time.perf_counter() - start
             busy += time.process_time() - cpu
             motion_set_aside += outcomes[0].result.motion_set_aside

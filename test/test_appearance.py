@@ -8,6 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
+from human_tracker.vision.anchoring import FRESH_FACE_FRAMES
 from human_tracker.vision.appearance import (
     HUE_BINS,
     NUM_BINS,
@@ -26,7 +27,7 @@ from human_tracker.vision.proposals import (
     log_prior_density,
     log_proposal_density,
 )
-from human_tracker.vision.target import FRESH_FACE_FRAMES, TargetParameters, TargetTracker
+from human_tracker.vision.target import TargetParameters, TargetTracker
 from human_tracker.vision.templates import head_and_shoulders
 from human_tracker.vision.tracker import TrackEstimate
 
@@ -223,15 +224,17 @@ def test_faces_re_anchor_the_reported_box() -> None:
     box with it (hand-computed), and the contour then carries it the same way."""
     tracker = TargetTracker(head_and_shoulders(), parameters=TargetParameters(proposals='off'))
     state = np.array([100.0, 100.0, 50.0, 0.0])
-    tracker.box_relation = BoxRelation.of((90.0, 95.0, 30.0, 30.0), state)  # a face box from the start
+    tracker.anchor.box_relation = BoxRelation.of((90.0, 95.0, 30.0, 30.0), state)  # a face box from the start
     tracker._anchor_on_face(Detection((85.0, 90.0, 40.0, 40.0), 1.0), state)
     # The box and the face share their centre (105, 110); the box is 30 / 40 = 0.75 of the face.
-    assert tracker.face_relation == BoxRelation((0.0, 0.0), (0.75, 0.75))
+    assert tracker.anchor.face_relation == BoxRelation((0.0, 0.0), (0.75, 0.75))
     # The face moves by (+20, -10) and grows to 48: the box follows, 0.75 of 48 = 36 wide.
     tracker._anchor_on_face(Detection((105.0, 80.0, 48.0, 48.0), 1.0), state)
-    np.testing.assert_allclose(tracker.box_relation.box(state), (111.0, 86.0, 36.0, 36.0))
+    np.testing.assert_allclose(tracker.anchor.box_relation.box(state), (111.0, 86.0, 36.0, 36.0))
     # Between detections the contour carries it: 10 px to the right.
-    np.testing.assert_allclose(tracker.box_relation.box(state + [10.0, 0.0, 0.0, 0.0]), (121.0, 86.0, 36.0, 36.0))
+    np.testing.assert_allclose(
+        tracker.anchor.box_relation.box(state + [10.0, 0.0, 0.0, 0.0]), (121.0, 86.0, 36.0, 36.0)
+    )
 
 
 def test_an_automatic_start_reports_the_head_box_where_the_face_puts_it() -> None:
@@ -242,8 +245,8 @@ def test_an_automatic_start_reports_the_head_box_where_the_face_puts_it() -> Non
     tracker = TargetTracker(head_and_shoulders(), parameters=TargetParameters(proposals='off'))
     tracker._anchor_on_face(Detection((85.0, 90.0, 40.0, 40.0), 1.0), np.array([90.0, 130.0, 70.0, 0.2]))
     # In face widths from the face's centre (105, 110): (0, -6.25 / 40), size (50 / 40, 62.5 / 40).
-    np.testing.assert_allclose(tracker.face_relation.centre, (0.0, -0.15625))
-    np.testing.assert_allclose(tracker.face_relation.size, (1.25, 1.5625))
+    np.testing.assert_allclose(tracker.anchor.face_relation.centre, (0.0, -0.15625))
+    np.testing.assert_allclose(tracker.anchor.face_relation.size, (1.25, 1.5625))
 
 
 def test_a_face_off_the_contour_restarts_only_a_target_found_by_itself() -> None:
@@ -286,7 +289,7 @@ def test_a_head_whose_face_was_just_seen_restarts_only_on_a_face_of_its_size() -
     )
     tracker.status = TRACKING
     tracker._anchor_on_face(Detection((80.0, 90.0, 40.0, 40.0), 1.0), estimate.state)
-    tracker.last_face, tracker.frames_without_own_face = (80.0, 90.0, 40.0, 40.0), FRESH_FACE_FRAMES
+    tracker.faces.last_face, tracker.frames_without_own_face = (80.0, 90.0, 40.0, 40.0), FRESH_FACE_FRAMES
     smaller, alike = FACE_ON_HEAD.state((200.0, 100.0, 30.0, 30.0)), FACE_ON_HEAD.state((20.0, 100.0, 44.0, 44.0))
     assert tracker._restart_on_face(np.array([smaller]), None, estimate, None) is None
     assert tracker._restart_on_face(np.array([smaller, alike]), None, estimate, None) == 1

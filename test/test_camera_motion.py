@@ -115,12 +115,12 @@ def test_the_tracker_is_carried_by_the_shake_and_leaves_the_pan_to_its_dynamics(
     carried = []
     for _ in range(2):
         tracker.process(image, camera_motion=pan)
-        carried.append(tracker.camera_motion[:, 2])
+        carried.append(tracker.camera.motion[:, 2])
     np.testing.assert_allclose(carried, [[2.8, 0.0], [1.96, 0.0]])
     still = TargetTracker(head_and_shoulders(), TrackerParameters(), TargetParameters(proposals='off'))
     still.initialise_from_box((300.0, 200.0, 60.0, 70.0))
     still.process(image, camera_motion=np.eye(2, 3))
-    assert still.camera_motion is None
+    assert still.camera.motion is None
 
 
 def test_the_filter_keeps_the_targets_own_velocity() -> None:

@@ -76,25 +76,26 @@ def test_a_stage_says_ready_once_spinning_and_warmed_up() -> None:
     assert extra[0] == 'WAITING'
 
 
-SKIN_KERNELS = (
-    '_nearest_class',
-    '_distance_levels',
-    '_modes',
-    '_region_histograms',
-    '_cluster_statistics',
-    '_two_means',
-)
+SKIN_KERNELS = {
+    'skin.model': ('_nearest_class',),
+    'skin.regions': ('_distance_levels',),
+    'skin.clusters': ('_modes', '_region_histograms', '_cluster_statistics', '_two_means'),
+}
 
 
 @pytest.mark.parametrize(
     ('node', 'target', 'kernels'),
     [
-        ('skin_node.SkinNode', None, {'skin': SKIN_KERNELS}),
+        ('skin_node.SkinNode', None, SKIN_KERNELS),
         ('tracker_node.TrackerNode', 'head', {'measurement': ('_contour_costs',), 'proposals': ('_log_mixture',)}),
         (
             'tracker_node.TrackerNode',
             'hand',
-            {'measurement': ('_contour_costs', '_colour_costs', '_strongest_channel'), 'proposals': ('_log_mixture',)},
+            {
+                'measurement': ('_contour_costs', '_colour_costs'),
+                'edges': ('_strongest_channel',),
+                'proposals': ('_log_mixture',),
+            },
         ),
     ],
 )
@@ -200,11 +201,11 @@ def test_masks_of_frames_tracked_long_ago_are_not_counted_as_never_received() ->
         for index in range(60):
             node.on_image(_stamped(array_to_image(frame, 'bgr8'), index))
         for index in range(60):
-            node._on_mask('foreground', _stamped(array_to_image(np.zeros((240, 320), np.uint8), 'mono8'), index))
+            node.inputs.on_mask('foreground', _stamped(array_to_image(np.zeros((240, 320), np.uint8), 'mono8'), index))
         before = node.diagnostics_state()[1]['frames_never_received']
-        node._on_mask('foreground', _stamped(array_to_image(np.zeros((240, 320), np.uint8), 'mono8'), 61))
+        node.inputs.on_mask('foreground', _stamped(array_to_image(np.zeros((240, 320), np.uint8), 'mono8'), 61))
         node.on_image(_stamped(array_to_image(frame, 'bgr8'), 62))
-        node._drain()
+        node.inputs.drain()
         after = node.diagnostics_state()[1]['frames_never_received']
     finally:
         node.destroy_node()

@@ -12,10 +12,12 @@ from conftest import REPO
 from human_tracker.evaluation.metrics import centre_errors
 from human_tracker.offline import TrackOptions, track_sequence
 from human_tracker.scenes.generator import SCENES, render_scene
+from human_tracker.vision.anchoring import face_and_neck
 from human_tracker.vision.background import BackgroundModel
 from human_tracker.vision.faces import Detection
 from human_tracker.vision.skin import SkinSegmenter, default_skin_model
-from human_tracker.vision.target import TargetTracker, _moves_within, parameters_for
+from human_tracker.vision.starts import _moves_within, initial_region
+from human_tracker.vision.target import TargetTracker, parameters_for
 from human_tracker.vision.templates import open_hand
 from human_tracker.vision.tracker import TrackerParameters
 
@@ -75,10 +77,8 @@ def test_a_hand_that_leaves_is_lost_and_found_again() -> None:
 
 
 def test_a_face_is_cut_from_the_regions_hypotheses_come_from() -> None:
-    tracker = TargetTracker(open_hand(), TrackerParameters(), HAND)
     skin = np.full((120, 160), 255, np.uint8)
-    tracker.last_face = (50.0, 40.0, 20.0, 20.0)
-    region = tracker.initial_region(None, skin)
+    region = initial_region(None, skin, HAND, [face_and_neck((50.0, 40.0, 20.0, 20.0))])
     # Forehead to collar: x from 50 - 0.2 * 20 = 46 to 46 + 1.4 * 20 = 74, y from 40 - 0.3 * 20
     # = 34 to 34 + 2.8 * 20 = 90.
     cut = np.argwhere(region == 0)
@@ -92,7 +92,7 @@ def test_a_contour_on_the_face_found_last_is_lost(face_on_hand: bool) -> None:
     """A detected face where the hand's contour is: weak frames, LOST after lost_frames (5)."""
     frames = list(render_scene(SCENES['hand_wave']))[:12]
     tracker = TargetTracker(open_hand(), TrackerParameters(), HAND)
-    tracker.detector = None  # the rendered scene has no face dlib finds: the face is given
+    tracker.faces.detector = None  # the rendered scene has no face dlib finds: the face is given
     segmenter, background = SkinSegmenter(default_skin_model()), BackgroundModel()
     tracker.initialise_from_box(frames[0].box)
     statuses = []
@@ -100,8 +100,8 @@ def test_a_contour_on_the_face_found_last_is_lost(face_on_hand: bool) -> None:
         # A face box on the hand (the contour's box centre lies in it), or far away; in working
         # pixels, where the detector runs (640 px frames are reduced to 320).
         hand = tuple(0.5 * v for v in frame.box)
-        tracker.last_face = hand if face_on_hand else (5.0, 5.0, 20.0, 20.0)
-        tracker.face_misses = 0
+        tracker.faces.last_face = hand if face_on_hand else (5.0, 5.0, 20.0, 20.0)
+        tracker.faces.face_misses = 0
         gray = cv2.cvtColor(frame.image, cv2.COLOR_BGR2GRAY)
         statuses.append(tracker.process(frame.image, background.apply(gray), segmenter.segment(frame.image)).status)
     if face_on_hand:
@@ -131,7 +131,7 @@ def test_a_face_found_under_the_hand_on_this_frame_makes_it_lost_at_once(seen: b
     its thread), not after lost_frames (5)."""
     frames = list(render_scene(SCENES['hand_wave']))[:4]
     tracker = TargetTracker(open_hand(), TrackerParameters(), dataclasses.replace(HAND, detector_thread=False))
-    detector = tracker.detector = _FaceOnTheHand()
+    detector = tracker.faces.detector = _FaceOnTheHand()
     segmenter, background = SkinSegmenter(default_skin_model()), BackgroundModel()
     tracker.initialise_from_box(frames[0].box)
     statuses = []

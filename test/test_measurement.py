@@ -5,12 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from human_tracker.vision.edges import _strongest_channel, edge_map
 from human_tracker.vision.measurement import (
     _pixel,
-    _strongest_channel,
     colour_costs,
     contour_costs,
-    edge_map,
     log_likelihood,
     normalised_weights,
 )

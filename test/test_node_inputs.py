@@ -141,7 +141,7 @@ def test_tracker_debug_image_and_pose_carry_the_input_header() -> None:
         source.create_subscription(PoseWithCovarianceStamped, 'pose', poses.append, RELIABLE)
         _spin_until(
             executor,
-            lambda: publisher.get_subscription_count() >= 1 and tracker.debug_pub.get_subscription_count() >= 1,
+            lambda: publisher.get_subscription_count() >= 1 and tracker.outputs.debug_pub.get_subscription_count() >= 1,
         )
         sent = []
         for frame in frames:
@@ -173,7 +173,9 @@ def test_a_person_debug_image_draws_each_target_in_its_id_colour() -> None:
         source.create_subscription(Image, 'debug_image', debug.append, RELIABLE)
         _spin_until(
             executor,
-            lambda: skin_publisher.get_subscription_count() >= 1 and tracker.debug_pub.get_subscription_count() >= 1,
+            lambda: (
+                skin_publisher.get_subscription_count() >= 1 and tracker.outputs.debug_pub.get_subscription_count() >= 1
+            ),
         )
         for frame in frames:
             image = message_to_bgr8(frame.message)

@@ -17,21 +17,16 @@ from human_tracker.io.images import to_mono8
 from human_tracker.offline import POSE_COLUMNS, TrackOptions, read_poses, track_sequence
 from human_tracker.ros.image_conversion import message_to_bgr8
 from human_tracker.scenes.generator import PEOPLE_TARGETS, SCENES, render_scene
+from human_tracker.vision.anchoring import FRESH_FACE_FRAMES
 from human_tracker.vision.background import BackgroundModel
 from human_tracker.vision.boxes import box_centre, centre_within
+from human_tracker.vision.evidence import Evidence, WorkingFrame
 from human_tracker.vision.faces import FACE_ON_HEAD, Detection
 from human_tracker.vision.lifecycle import LOST, TRACKING
 from human_tracker.vision.people import SAME_REGION, PersonTracker, TrackedTarget, kinds_of, primary_target
 from human_tracker.vision.resolution import to_working
 from human_tracker.vision.skin import SkinParameters, SkinSegmenter, default_skin_model
-from human_tracker.vision.target import (
-    FRESH_FACE_FRAMES,
-    SharedFrames,
-    TargetResult,
-    TargetTracker,
-    WorkingFrame,
-    parameters_for,
-)
+from human_tracker.vision.target import TargetResult, TargetTracker, parameters_for
 from human_tracker.vision.templates import head_and_shoulders, open_hand
 from human_tracker.vision.tracker import TrackerParameters, TrackEstimate
 
@@ -100,13 +95,13 @@ def test_one_kind_is_exactly_the_target_tracker() -> None:
             np.testing.assert_array_equal(got.result.estimate.state, expected.estimate.state)
 
 
-def _working_frames(shared: SharedFrames) -> int:
-    return sum(isinstance(value, WorkingFrame) for value in shared.values())
+def _working_frames(evidence: Evidence) -> int:
+    return sum(isinstance(value, WorkingFrame) for value in evidence._working.values())
 
 
 def test_a_working_frame_computed_beforehand_gives_the_same_track() -> None:
     """A node waiting for a frame's masks computes the frame's working image, bins and edges
-    meanwhile (PersonTracker.working_frame): handed over, they give the track computed without
+    meanwhile (PersonTracker.evidence): with the cues added, they give the track computed without
     them, for a person's head and hands."""
     ahead, after = (PersonTracker(('head', 'hand'), TrackerParameters(seed=2)) for _ in range(2))
     cues, skin = BackgroundModel(), SkinSegmenter(default_skin_model())
@@ -116,13 +111,13 @@ def test_a_working_frame_computed_beforehand_gives_the_same_track() -> None:
                 people.initialise_from_box(frame.ground_truth, 'hand')
         motion = cues.apply(to_working(to_mono8(image), 320))
         labels = skin.segment(to_working(image, 320), 0.5)
-        shared = ahead.working_frame(image)
+        evidence = ahead.evidence(image)
         head_width, hand_width = (slot.tracker.working_width(image.shape[1]) for slot in ahead.slots[:2])
-        assert _working_frames(shared) == 1 and ('reduced', head_width) in shared
-        got = ahead.process(image, motion, labels, shared)
+        assert _working_frames(evidence) == 1 and ('reduced', head_width) in evidence._working
+        got = ahead.step(evidence.with_cues(motion=motion, skin=labels))
         # The hand's own (colour edges) was added beside the head's, from the same reduced
         # frame while both work at one width (the head found by itself on a small thing: two).
-        assert _working_frames(shared) == 2 and len(shared) == 2 + len({head_width, hand_width})
+        assert _working_frames(evidence) == 2 and len(evidence._working) == 2 + len({head_width, hand_width})
         expected = after.process(image, motion, labels)
         assert [(o.id, o.kind, o.result.status) for o in got] == [(o.id, o.kind, o.result.status) for o in expected]
         for a, b in zip(got, expected, strict=True):
@@ -159,30 +154,30 @@ def test_the_hand_keeps_off_the_face_found_on_the_head() -> None:
         first, image = frames[0]
         head.initialise_from_box(first.ground_truth)
         person.process(image)
-        assert hand.last_face is None and hand.frames == 1  # no face on the head: the hand's detector ran
+        assert hand.faces.last_face is None and hand.faces.frames == 1  # no face on the head: the hand's detector ran
         x, y, w, h = first.ground_truth
         face = (x + 0.1 * w, y + 0.15 * h, 0.8 * w, 0.8 * w)  # camera pixels
         found = [Detection(tuple(v * head.scale for v in face), 1.0)]
         head.detector.detect = head.detector.detect_near = lambda *a, found=found, **k: found
         head.detector.localise = lambda image, box: box
         person.process(frames[1][1])  # the head's detector finds the face on this frame
-        runs = hand.frames
+        runs = hand.faces.frames
         for _, image in frames[2:5]:
             head_outcome = person.process(image)[0]
             assert head.frames_without_own_face <= FRESH_FACE_FRAMES
             if max_people == 1:
-                assert hand.last_face is None  # the synthetic head has no face for the hand's dlib
+                assert hand.faces.last_face is None  # the synthetic head has no face for the hand's dlib
             else:
                 placed = FACE_ON_HEAD.box(head_outcome.result.estimate.state)
-                np.testing.assert_allclose(np.array(hand.last_face) / hand.scale, placed, atol=1e-6)
-        assert hand.frames == runs + (3 if max_people == 1 else 0)  # handed the face, its detector did not run
+                np.testing.assert_allclose(np.array(hand.faces.last_face) / hand.scale, placed, atol=1e-6)
+        assert hand.faces.frames == runs + (3 if max_people == 1 else 0)  # handed the face, its detector did not run
         if max_people == 1:
             continue
         head.detector.detect = head.detector.detect_near = lambda *a, **k: []
         for _, image in frames[5 : 7 + FRESH_FACE_FRAMES]:
             head_outcome = person.process(image)[0]
         assert head.frames_without_own_face > FRESH_FACE_FRAMES
-        assert PersonTracker._face_of(head, head_outcome.result) is None and hand.frames > runs
+        assert PersonTracker._face_of(head, head_outcome.result) is None and hand.faces.frames > runs
 
 
 def test_a_hand_on_another_persons_face_is_lost() -> None:
@@ -255,7 +250,7 @@ def test_a_later_persons_head_needs_a_face_and_a_hand_its_persons_head() -> None
     assert second.tracker.detector is not None, DLIB_MISSING
     result = TargetResult('TRACKING', _estimate(300.0, 60.0), initialised=True)
     assert people._identify(second, result).status == 'LOST' and second.id == 0
-    second.tracker.last_face, second.tracker.frames_without_own_face = (290.0, 50.0, 20.0, 20.0), 0
+    second.tracker.faces.last_face, second.tracker.frames_without_own_face = (290.0, 50.0, 20.0, 20.0), 0
     assert people._identify(second, result).tracking and second.id == 1
     assert people._identify(first, TargetResult('TRACKING', _estimate(100.0, 60.0), initialised=True)).tracking
     first_hand, second_hand = people.slot('hand'), people.slot('person_2/hand')
@@ -458,11 +453,13 @@ def test_a_persons_hands_reduce_the_frame_once() -> None:
     image = _frames('people_crossing', 1)[0][1]
     person = PersonTracker(('head', 'hand', 'hand'))
     head, first, second = person.trackers
-    shared: SharedFrames = {}
-    frames = [tracker.working_frame(image, shared) for tracker in (head, first, second)]
-    assert frames[2] is frames[1] and frames[1] is not frames[0] and _working_frames(shared) == 2
-    assert set(shared) - {k for k, v in shared.items() if isinstance(v, WorkingFrame)} == {('reduced', 320)}
-    alone = TargetTracker(open_hand(), parameters=parameters_for('hand')).working_frame(image)
+    evidence = Evidence(image)
+    frames = [evidence.working(tracker.frame_settings(image.shape[1])) for tracker in (head, first, second)]
+    assert frames[2] is frames[1] and frames[1] is not frames[0] and _working_frames(evidence) == 2
+    kept = evidence._working
+    assert set(kept) - {k for k, v in kept.items() if isinstance(v, WorkingFrame)} == {('reduced', 320)}
+    hand = TargetTracker(open_hand(), parameters=parameters_for('hand'))
+    alone = Evidence(image).working(hand.frame_settings(image.shape[1]))
     assert all(np.array_equal(a, b) for a, b in zip(alone[:3], frames[2][:3], strict=True))
     assert frames[2].bins is None and frames[0].edges.shape == frames[2].edges.shape
 

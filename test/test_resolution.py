@@ -10,6 +10,7 @@ from human_tracker.evaluation.metrics import summarise
 from human_tracker.io.images import to_mono8
 from human_tracker.io.sequences import open_sequence
 from human_tracker.vision.background import BackgroundModel
+from human_tracker.vision.evidence import at_working
 from human_tracker.vision.resolution import same_frame, to_working, working_scale, working_shape
 from human_tracker.vision.skin import SkinParameters
 from human_tracker.vision.target import TargetParameters, TargetTracker
@@ -102,8 +103,9 @@ def test_masks_may_come_at_any_resolution_of_the_frame() -> None:
     # A cue stage at another working width (here 160): its mask is brought to the tracker's.
     moving = np.zeros((120, 160), np.uint8)
     moving[30:60, 70:90] = 255
-    assert tracker._at_working('mask', moving, (480, 640)).shape == (240, 320)
-    assert np.count_nonzero(tracker._at_working('mask', moving, (480, 640))) == 4 * np.count_nonzero(moving)
+    working = at_working('mask', moving, (480, 640), tracker.working_width(640))
+    assert working.shape == (240, 320)
+    assert np.count_nonzero(working) == 4 * np.count_nonzero(moving)
 
 
 def test_the_filter_follows_a_change_of_frame_size() -> None:

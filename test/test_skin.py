@@ -34,7 +34,7 @@ from human_tracker.vision.skin import (
     segment_skin,
     train_skin_model,
 )
-from human_tracker.vision.skin import _two_means as two_means
+from human_tracker.vision.skin.clusters import _two_means as two_means
 
 SKIN_SAMPLES = REPO.parent / 'shared' / 'data' / 'skin' / 'Skin_NonSkin.txt'
 HGR = REPO.parent / 'shared' / 'data' / 'skin' / 'hgr'

@@ -255,8 +255,8 @@ def test_the_face_detector_slows_down_when_it_finds_no_face() -> None:
     assert tracker.detector is not None, DLIB_MISSING
     runs = []
     detect, detect_near = tracker.detector.detect, tracker.detector.detect_near
-    tracker.detector.detect = lambda *a, **k: runs.append(tracker.frames) or detect(*a, **k)
-    tracker.detector.detect_near = lambda *a, **k: runs.append(tracker.frames) or detect_near(*a, **k)
+    tracker.detector.detect = lambda *a, **k: runs.append(tracker.faces.frames) or detect(*a, **k)
+    tracker.detector.detect_near = lambda *a, **k: runs.append(tracker.faces.frames) or detect_near(*a, **k)
     noise = np.random.default_rng(0).integers(0, 256, (240, 320), dtype=np.uint8)
     for _ in range(100):
         tracker.process(noise)
@@ -276,14 +276,14 @@ def test_a_target_found_by_itself_looks_for_its_face_on_the_whole_frame_after_on
     tracker.filter.initialise(np.array([160.0, 120.0, 50.0, 0.0]))
     tracker.status = 'TRACKING'
     for misses in (0, 1, 2):
-        tracker.face_misses = misses
-        tracker._face_search(grey)()
+        tracker.faces.face_misses = misses
+        tracker.faces._head_search(grey, tracker.parameters, tracker._predicted_face)()
     assert calls == ['near', 'frame', 'frame']
     calls.clear()
     tracker.initialise_from_box((135.0, 95.0, 50.0, 50.0))
     for misses in (0, 1, 2, 3):
-        tracker.face_misses = misses
-        tracker._face_search(grey)()
+        tracker.faces.face_misses = misses
+        tracker.faces._head_search(grey, tracker.parameters, tracker._predicted_face)()
     assert calls == ['near', 'near', 'near', 'frame']
 
 
@@ -302,7 +302,7 @@ def test_the_search_around_a_tracked_face_reaches_face_search_reach_sizes() -> N
         tracker.detector.detect = lambda image, upsample, c=crops: c.append(image.shape) or []
         tracker.filter.initialise(np.array([160.0, 120.0, 50.0, 0.0]))
         tracker.status = 'TRACKING'
-        tracker._face_search(np.zeros((240, 320), np.uint8))()
+        tracker.faces._head_search(np.zeros((240, 320), np.uint8), parameters, tracker._predicted_face)()
         found[reach] = crops[0]
     # 2 * reach * 40 px across, zoomed by 80 / (0.9 * 40).
     zoom = 80.0 / 36.0
@@ -461,7 +461,7 @@ def test_a_head_whose_face_was_seen_comes_back_from_a_moving_region_only_with_it
         if index == 10:
             tracker.mark_lost()
         results.append(tracker.process(image, motion))
-    assert proposals == 'off' or tracker.face_relation is not None
+    assert proposals == 'off' or tracker.anchor.face_relation is not None
     assert any(r.initialised for r in results[10:])  # the moving region restarted the filter
     assert (results[-1].status == 'TRACKING') == comes_back
 
@@ -473,8 +473,8 @@ def test_faces_delivered_a_frame_late_are_carried_by_the_camera_and_the_target()
     tracker = TargetTracker(head_and_shoulders(), TrackerParameters(velocity_damping=0.6), TargetParameters())
     tracker.filter.particles = np.tile([100.0, 100.0, 50.0, 0.0], (10, 1))
     tracker.filter.previous = tracker.filter.particles - [2.0, -1.0, 0.0, 0.0]
-    tracker.camera_motion = np.array([[1.0, 0.0, 3.0], [0.0, 1.0, 4.0]])
-    (face,) = tracker._carried([Detection((10.0, 20.0, 30.0, 30.0), 1.0)])
+    tracker.camera.motion = np.array([[1.0, 0.0, 3.0], [0.0, 1.0, 4.0]])
+    (face,) = tracker._carry([Detection((10.0, 20.0, 30.0, 30.0), 1.0)])
     np.testing.assert_allclose(face.box, (14.2, 23.4, 30.0, 30.0))
     np.testing.assert_allclose(face.carried, (4.2, 3.4))
 

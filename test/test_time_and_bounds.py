@@ -64,10 +64,10 @@ def test_a_stall_of_the_node_s_own_is_not_reported_as_a_camera_gap() -> None:
         while time.process_time() < deadline:  # the node's own work, as a compilation would be
             pass
         node.process_frame(images[1], _header(array_to_image(images[1], 'bgr8'), 5.0))
-        stalls_after_busy = node.stalls
+        stalls_after_busy = node.gaps.stalls
         time.sleep(0.4)  # idle: the camera sent nothing
         node.process_frame(images[2], _header(array_to_image(images[2], 'bgr8'), 10.0))
-        stalls_after_idle = node.stalls
+        stalls_after_idle = node.gaps.stalls
     finally:
         node.destroy_node()
         rclpy.try_shutdown()
@@ -89,16 +89,16 @@ def test_frames_waiting_for_masks_that_never_come_stay_bounded_and_counted() -> 
             message = array_to_image(message_to_bgr8(frame.message), 'bgr8')
             _header(message, index / 30)
             node.on_image(message)
-            most_pending = max(most_pending, len(node.pending))
+            most_pending = max(most_pending, len(node.inputs.matcher.held))
         deadline = time.monotonic() + 5.0
-        while node.pending and time.monotonic() < deadline:
+        while node.inputs.matcher.held and time.monotonic() < deadline:
             rclpy.spin_once(node, timeout_sec=0.05)
     finally:
         node.destroy_node()
         rclpy.try_shutdown()
     assert most_pending <= 5
-    assert node.pending == type(node.pending)()
-    assert node.counters.processed == 40 and node.unmatched == {'foreground': 40}
+    assert not node.inputs.matcher.held
+    assert node.counters.processed == 40 and node.inputs.matcher.unmatched == {'foreground': 40}
 
 
 def test_frames_that_never_reach_the_tracker_are_counted_from_their_masks() -> None:
@@ -118,17 +118,17 @@ def test_frames_that_never_reach_the_tracker_are_counted_from_their_masks() -> N
             if index == 9:
                 time.sleep(0.1)  # frame 8 waits out match_timeout and is tracked without its mask
             if index != 8:
-                node._on_mask('foreground', mask(index))
+                node.inputs.on_mask('foreground', mask(index))
             if index not in (4, 7):
                 message = array_to_image(message_to_bgr8(frame.message), 'bgr8')
                 _header(message, index / 30)
                 node.on_image(message)
-        node._on_mask('foreground', mask(8))  # after its frame was tracked: late, not lost
+        node.inputs.on_mask('foreground', mask(8))  # after its frame was tracked: late, not lost
         diagnostics = node.diagnostics_state()[1]
     finally:
         node.destroy_node()
         rclpy.try_shutdown()
-    assert node.counters.processed == 8 and node.unmatched == {'foreground': 1}
+    assert node.counters.processed == 8 and node.inputs.matcher.unmatched == {'foreground': 1}
     assert diagnostics['frames_never_received'] == 2
 
 

@@ -13,6 +13,7 @@ from typing import Any
 
 import cv2
 import numpy as np
+import pytest
 import rclpy
 from conftest import BAGS
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
@@ -28,7 +29,7 @@ from sensor_msgs.msg import CameraInfo, Image
 from std_srvs.srv import Trigger
 from test_optical_flow import _textured
 
-import human_tracker.ros.tracker_node as tracker_module
+import human_tracker.ros.tracker_outputs as outputs_module
 from human_tracker.demo import node_arguments
 from human_tracker.io.bags import COMPRESSED_CAMERA_TOPIC, read_frames
 from human_tracker.offline import TrackOptions, track_sequence
@@ -227,6 +228,50 @@ def test_primary_id_set_at_run_time_moves_pose_to_that_head() -> None:
     assert followed >= 10
 
 
+def test_run_time_parameters_reach_every_target_of_a_person() -> None:
+    """target:=person, two people with two hands each: a parameter client (as ``ros2 param set``)
+    changes the heads' ``lost_frames``, the hands' ``hand.lost_frames`` and a filter constant;
+    all six trackers get the change of their kind, and each filter keeps its own seed."""
+    overrides = [
+        Parameter('target', value='person'),
+        Parameter('hands', value=2),
+        Parameter('max_people', value=2),
+        Parameter('hand.detect_every', value=7),  # the hands' own values, at start too
+    ]
+    rclpy.init()
+    node = TrackerNode(subscribe_image=False, parameter_overrides=overrides)
+    graph = Graph(node)
+    try:
+        slots = node.people.slots
+        assert [s.kind for s in slots] == ['head', 'hand', 'hand'] * 2
+        seeds = [s.tracker.filter_parameters.seed for s in slots]
+        assert len(set(seeds)) == len(slots)
+        assert {s.tracker.parameters.detect_every for s in slots if s.kind == 'hand'} == {7}
+        assert {s.tracker.parameters.detect_every for s in slots if s.kind == 'head'} == {1}
+        client = AsyncParameterClient(graph.camera, 'tracker_node')
+        assert client.wait_for_services(20.0)
+        changes = [
+            Parameter('lost_frames', value=9),
+            Parameter('hand.lost_frames', value=11),
+            Parameter('likelihood_gain', value=0.02),
+        ]
+        future = client.set_parameters(changes)
+        # Served once the warm-up (every tracker's kernels, in a callback) is over.
+        assert graph.spin_until(future.done, 120.0)
+        assert all(result.successful for result in future.result().results)
+        refused = client.set_parameters([Parameter('hand.lost_frames', value=0)])
+        assert graph.spin_until(refused.done, 10.0)
+        assert not refused.result().results[0].successful
+    finally:
+        graph.close()
+        rclpy.try_shutdown()
+    assert [s.tracker.parameters.lost_frames for s in slots] == [9, 11, 11] * 2
+    assert [s.tracker.filter.parameters.likelihood_gain for s in slots] == [
+        pytest.approx(0.02 / s.tracker.scale**2) for s in slots
+    ]
+    assert [s.tracker.filter_parameters.seed for s in slots] == seeds
+
+
 def test_the_background_and_skin_nodes_forget_on_reset() -> None:
     frames = [message_to_bgr8(f.message) for f in list(read_frames(BAGS / 'hand_wave'))[:12]]
     rclpy.init()
@@ -274,13 +319,13 @@ def test_the_background_and_skin_nodes_forget_on_reset() -> None:
 
 def test_debug_image_is_drawn_only_while_someone_subscribes(monkeypatch) -> None:
     drawn: list[int] = []
-    annotate = tracker_module.annotate
+    annotate = outputs_module.annotate
 
     def counting(*args: Any, **kwargs: Any) -> np.ndarray:
         drawn.append(1)
         return annotate(*args, **kwargs)
 
-    monkeypatch.setattr(tracker_module, 'annotate', counting)
+    monkeypatch.setattr(outputs_module, 'annotate', counting)
     frames = [message_to_bgr8(f.message) for f in list(read_frames(BAGS / 'head_basic'))[:10]]
     rclpy.init()
     node = TrackerNode(subscribe_image=False)
@@ -291,7 +336,7 @@ def test_debug_image_is_drawn_only_while_someone_subscribes(monkeypatch) -> None
             node.process_frame(frames[index], _header(array_to_image(frames[index], 'bgr8'), index / 30))
         not_subscribed = len(drawn)
         graph.camera.create_subscription(Image, 'debug_image', received.append, RELIABLE)
-        assert graph.spin_until(lambda: node.debug_pub.get_subscription_count() > 0)
+        assert graph.spin_until(lambda: node.outputs.debug_pub.get_subscription_count() > 0)
         for index in range(5, 10):
             node.process_frame(frames[index], _header(array_to_image(frames[index], 'bgr8'), index / 30))
         assert graph.spin_until(lambda: len(received) == 5)

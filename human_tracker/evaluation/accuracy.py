@@ -30,7 +30,7 @@ from human_tracker.evaluation.metrics import Box, normalised_errors, summarise
 from human_tracker.io.sequences import open_sequence
 from human_tracker.offline import TrackOptions, read_covariances, read_ids, read_poses, track_sequence
 from human_tracker.vision.people import kinds_of
-from human_tracker.vision.target import TargetParameters, parameters_for
+from human_tracker.vision.target_parameters import TargetParameters, parameters_for
 from human_tracker.vision.tracker import TrackerParameters
 
 __all__ = [

@@ -36,7 +36,7 @@ from human_tracker.io.bags import write_bag
 from human_tracker.io.sequences import open_sequence, read_groundtruth, write_groundtruth
 from human_tracker.offline import TrackOptions, track_sequence
 from human_tracker.vision.skin import SkinParameters
-from human_tracker.vision.target import TargetParameters, parameters_for
+from human_tracker.vision.target_parameters import TargetParameters, parameters_for
 from human_tracker.vision.tracker import TrackerParameters
 
 __all__ = [

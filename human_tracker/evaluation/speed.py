@@ -15,7 +15,7 @@ import numpy as np
 
 from human_tracker.io.images import message_to_bgr8, to_mono8
 from human_tracker.vision.background import BackgroundModel
-from human_tracker.vision.measurement import edge_map
+from human_tracker.vision.edges import edge_map
 from human_tracker.vision.optical_flow import OpticalFlow
 from human_tracker.vision.people import PersonTracker
 from human_tracker.vision.resolution import to_working, working_scale

@@ -15,10 +15,10 @@ from sensor_msgs.msg import Image
 from std_srvs.srv import Trigger
 
 from human_tracker.ros.common import RESULT_QOS, declare_working_width
-from human_tracker.ros.image_conversion import array_to_image, to_mono8
+from human_tracker.ros.image_conversion import array_to_image
 from human_tracker.ros.stage import ImageStage, ParameterSpec, spin_node
 from human_tracker.vision.background import BackgroundModel, BackgroundParameters
-from human_tracker.vision.resolution import to_working
+from human_tracker.vision.cues import foreground
 
 __all__ = ['BACKGROUND_PARAMETERS', 'BackgroundNode', 'main']
 
@@ -84,7 +84,7 @@ class BackgroundNode(ImageStage):
 
     def handle_frame(self, image: np.ndarray, header: Any) -> np.ndarray:
         """Foreground mask of one frame, published under ``header``."""
-        mask = self.model.apply(to_working(to_mono8(image), self.working_width))
+        mask = foreground(self.model, image, self.working_width)
         self.counters.processed += 1
         self.foreground_pub.publish(array_to_image(mask, 'mono8', header))
         if self.background_pub.get_subscription_count() > 0:

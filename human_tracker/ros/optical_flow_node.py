@@ -18,10 +18,10 @@ from geometry_msgs.msg import Vector3Stamped
 from sensor_msgs.msg import Image
 
 from human_tracker.ros.common import RESULT_QOS, declare, declare_working_width
-from human_tracker.ros.image_conversion import array_to_image, to_mono8
+from human_tracker.ros.image_conversion import array_to_image
 from human_tracker.ros.stage import ImageStage, ParameterSpec, spin_node, stamp_ns
+from human_tracker.vision.cues import flow_motion
 from human_tracker.vision.optical_flow import FlowParameters, OpticalFlow
-from human_tracker.vision.resolution import to_working, working_scale
 
 __all__ = ['FLOW_PARAMETERS', 'OpticalFlowNode', 'main']
 
@@ -82,17 +82,14 @@ class OpticalFlowNode(ImageStage):
 
     def handle_frame(self, image: np.ndarray, header: Any) -> np.ndarray:
         """Motion mask of one frame, published under ``header``."""
-        gray = to_mono8(image)
-        scale = working_scale(gray.shape[1], self.working_width)
-        k = np.diag([scale, scale, 1.0]) @ self.intrinsics(gray.shape[1], gray.shape[0])
-        gray = to_working(gray, self.working_width)
         stamp = stamp_ns(header)
         dt = 0.0 if self.previous_stamp is None else (stamp - self.previous_stamp) / 1e9
         self.previous_stamp = stamp
         omega = None
         if self.angular_velocity is not None and abs(stamp - self.angular_velocity[0]) <= self.max_rotation_age * 1e9:
             omega = self.angular_velocity[1]
-        flow, mask = self.flow.apply(gray, camera_matrix=k, angular_velocity=omega, dt=max(dt, 0.0))
+        k = self.intrinsics(image.shape[1], image.shape[0])
+        flow, mask = flow_motion(self.flow, image, self.working_width, k, omega, max(dt, 0.0))
         self.counters.processed += 1
         self.motion_pub.publish(array_to_image(mask, 'mono8', header))
         if self.flow_pub.get_subscription_count() > 0:

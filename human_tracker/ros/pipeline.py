@@ -21,6 +21,7 @@ from human_tracker.ros.optical_flow_node import OpticalFlowNode
 from human_tracker.ros.skin_node import SkinNode
 from human_tracker.ros.stage import ImageStage, run_nodes
 from human_tracker.ros.tracker_node import TrackerNode
+from human_tracker.vision.cues import camera_shake
 
 __all__ = ['MOTION_CUES', 'CameraSubscriber', 'build_pipeline', 'main']
 
@@ -49,8 +50,8 @@ class CameraSubscriber(ImageStage):
         skin = None if self.skin_stage is None else self.skin_stage.process_frame(image, header)
         self.counters.processed += 1
         # The background stage's measure of the camera's motion carries the particles (no cost).
-        background = self.motion_stage.model if isinstance(self.motion_stage, BackgroundNode) else None
-        shake = None if background is None else background.camera_motion_in(image.shape[1])
+        model = self.motion_stage.model if isinstance(self.motion_stage, BackgroundNode) else None
+        shake = camera_shake(model, image.shape[1])
         return self.tracker.process_frame(image, header, motion=mask, skin=skin, camera_motion=shake)
 
 

@@ -13,7 +13,6 @@ import sys
 from dataclasses import replace
 from typing import Any
 
-import cv2
 import numpy as np
 from geometry_msgs.msg import PolygonStamped
 from sensor_msgs.msg import Image
@@ -22,7 +21,7 @@ from std_srvs.srv import Trigger
 from human_tracker.ros.common import RESULT_QOS, declare, declare_working_width
 from human_tracker.ros.image_conversion import array_to_image
 from human_tracker.ros.stage import ImageStage, ParameterSpec, spin_node
-from human_tracker.vision.resolution import to_working, working_scale, working_shape
+from human_tracker.vision.cues import skin_labels
 from human_tracker.vision.skin import (
     REGION_METHODS,
     SkinModel,
@@ -144,23 +143,15 @@ class SkinNode(ImageStage):
 
     def handle_frame(self, image: np.ndarray, header: Any) -> np.ndarray:
         """Skin labels of one frame, published under ``header``."""
+        # A grey-level camera has no chromaticity: empty labels are published, so that a
+        # tracker waiting for this frame's skin labels is not held up.
         self.last_frame_grey = not has_colour(image)
-        if self.last_frame_grey:
-            # A grey-level camera has no chromaticity: say so, and publish empty labels so
-            # that a tracker waiting for this frame's skin labels is not held up.
-            if self.grey_frames == 0:
-                self.get_logger().warn('grey-level image: no skin can be found without colour')
-            self.grey_frames += 1
-            skin = np.zeros(working_shape(image.shape, self.working_width), dtype=np.uint8)
-        else:
-            scale = working_scale(image.shape[1], self.working_width)
-            image = to_working(image, self.working_width)
-            skin = self.segmenter.segment(image, scale)
-            if self.contour is not None:
-                # The latest contour (a frame or two old, camera pixels) marks where the target is.
-                region = np.zeros(image.shape[:2], dtype=np.uint8)
-                cv2.fillPoly(region, [np.round(self.contour * scale).astype(np.int32)], 255)
-                self.adaptations += int(self.segmenter.adapt(image, region, skin))
+        if self.last_frame_grey and self.grey_frames == 0:
+            self.get_logger().warn('grey-level image: no skin can be found without colour')
+        self.grey_frames += int(self.last_frame_grey)
+        # The latest contour (a frame or two old) marks where the target is.
+        skin, adapted = skin_labels(self.segmenter, image, self.working_width, self.contour)
+        self.adaptations += int(adapted)
         self.counters.processed += 1
         self.skin_pub.publish(array_to_image(skin, 'mono8', header))
         return skin

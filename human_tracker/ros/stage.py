@@ -141,7 +141,8 @@ class ImageStage(LifecycleNode):
         self.camera_matrix: np.ndarray | None = None
         self.rectified_matrix: np.ndarray | None = None
         self.distortion: np.ndarray | None = None
-        self._bindings: list[tuple[Sequence[ParameterSpec], Callable[[], Any], Callable[[Any], None]]] = []
+        # Each bound dataclass: its ROS names' fields, its current value, and how a change is applied.
+        self._bindings: list[tuple[dict[str, str], Callable[[], Any], Callable[[Any], None]]] = []
         self.diagnostics_pub = self.create_publisher(DiagnosticArray, '/diagnostics', RESULT_QOS)
         period = declare(
             self,
@@ -236,8 +237,11 @@ class ImageStage(LifecycleNode):
         self.ready_pub.publish(Bool(data=True))
         self.get_logger().info('ready')
 
-    def bind_parameters(self, instance: Any, specs: Sequence[ParameterSpec], apply: Callable[[Any], None]) -> Any:
-        """Declare ``specs`` from the dataclass ``instance``'s defaults; return it with the declared values.
+    def bind_parameters(
+        self, instance: Any, specs: Sequence[ParameterSpec], apply: Callable[[Any], None], prefix: str = ''
+    ) -> Any:
+        """Declare ``specs`` (as ``prefix`` + field: ``hand.lost_frames``) from the dataclass
+        ``instance``'s defaults; return it with the declared values.
 
         Run-time changes build a new instance, call its ``validate()`` and, if it passes,
         hand it to ``apply``; otherwise the change is refused with the validation message.
@@ -248,7 +252,13 @@ class ImageStage(LifecycleNode):
             if isinstance(default, tuple):
                 default = list(default)
             value = declare(
-                self, spec.field, default, spec.description, low=spec.low, high=spec.high, read_only=not spec.runtime
+                self,
+                prefix + spec.field,
+                default,
+                spec.description,
+                low=spec.low,
+                high=spec.high,
+                read_only=not spec.runtime,
             )
             values[spec.field] = tuple(value) if isinstance(default, list) else value
         bound = dataclasses.replace(instance, **values)
@@ -259,13 +269,13 @@ class ImageStage(LifecycleNode):
             current['value'] = new
             apply(new)
 
-        self._bindings.append((specs, lambda: current['value'], commit))
+        fields = {prefix + spec.field: spec.field for spec in specs}
+        self._bindings.append((fields, lambda: current['value'], commit))
         return bound
 
     def _on_set_parameters(self, parameters: list[Parameter]) -> SetParametersResult:
-        for specs, get, commit in self._bindings:
-            names = {spec.field for spec in specs}
-            changes = {p.name: _plain(p.value) for p in parameters if p.name in names}
+        for fields, get, commit in self._bindings:
+            changes = {fields[p.name]: _plain(p.value) for p in parameters if p.name in fields}
             if not changes:
                 continue
             candidate = dataclasses.replace(get(), **changes)

@@ -20,7 +20,14 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-__all__ = ['CameraMotion', 'CameraMotionParameters', 'estimate_camera_motion', 'move_states', 'scale_transform']
+__all__ = [
+    'CameraMotion',
+    'CameraMotionParameters',
+    'CameraShake',
+    'estimate_camera_motion',
+    'move_states',
+    'scale_transform',
+]
 
 
 @dataclass(frozen=True)
@@ -158,3 +165,57 @@ def scale_transform(transform: np.ndarray, factor: float) -> np.ndarray:
     scaled = np.array(transform, dtype=np.float64, copy=True)
     scaled[:, 2] *= factor
     return scaled
+
+
+@dataclass
+class CameraShake:
+    """A track's view of the camera's motion: the shake its particles are carried with.
+
+    The running mean of the camera's shift per frame (a pan, ``pan_smoothing``: an operator or
+    a robot's head following the person, who then stays put in the image) is left to the AR(2)
+    velocity; only the rest, the shake, carries the particles.
+
+    Attributes:
+        pan: ``(2,)`` the running mean shift, working pixels per frame.
+        previous: The grey working frame before (the estimate's), None at first.
+        motion: The shake carried onto the last frame (``(2, 3)``, working pixels), None: none.
+    """
+
+    pan: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    previous: np.ndarray | None = field(default=None, repr=False)
+    motion: np.ndarray | None = None
+
+    def follow(
+        self,
+        grey: np.ndarray,
+        given: np.ndarray | None,
+        scale: float,
+        particles: np.ndarray | None,
+        *,
+        estimate: bool,
+        pan_smoothing: float,
+    ) -> np.ndarray | None:
+        """The shake onto the frame ``grey`` (working pixels) to carry ``particles`` (working
+        pixels) with, or None: ``given`` (camera pixels, ``scale`` working pixels per camera
+        pixel), or with ``estimate`` estimated here away from the target around the particles."""
+        previous, self.previous = self.previous, grey
+        self.motion = None
+        if given is not None:
+            transform = scale_transform(given, scale)
+        elif estimate and particles is not None and previous is not None and previous.shape == grey.shape:
+            x, y, s = particles.mean(axis=0)[:3]
+            exclude = np.zeros(grey.shape, np.uint8)
+            # The head and shoulders (or the hand and forearm) around the state: it moves on its own.
+            cv2.rectangle(exclude, (int(x - 1.5 * s), int(y - 1.5 * s)), (int(x + 1.5 * s), int(y + 2.5 * s)), 255, -1)
+            transform = estimate_camera_motion(previous, grey, exclude)
+        else:
+            return None
+        if transform is None:
+            return None
+        # The pan is followed while the filter waits too: a target found mid-pan is not shaken.
+        self.pan = pan_smoothing * self.pan + (1.0 - pan_smoothing) * transform[:, 2]
+        transform[:, 2] -= self.pan
+        if particles is None or np.array_equal(transform, np.eye(2, 3)):
+            return None
+        self.motion = transform
+        return transform

@@ -1,16 +1,24 @@
-"""A track's life: its state and the one function that changes it.
+"""A track's life: its state, the one function that changes it, and the tests that feed it.
 
 A target is WAITING (never taken up, or reset), TRACKING, or LOST (taken up once, not followed
 now; its filter may still hold an estimate). Every change of a target's state is
-:func:`transition` applied to an :class:`Event` that the tracker's tests name; a reader can
-list every way a track starts and ends here.
+:func:`transition` applied to an :class:`Event`: a reader can list every way a track starts
+and ends here. A target is LOST after ``lost_frames`` weak frames in a row
+(:func:`weak_frame`), and TRACKING again when its evidence holds (:func:`recovers`), or when a
+face or a hypothesis restarts it (:mod:`~human_tracker.vision.target`).
 """
 
 from __future__ import annotations
 
 from enum import Enum, StrEnum
+from typing import TYPE_CHECKING
 
-__all__ = ['TrackState', 'Event', 'transition', 'WAITING', 'TRACKING', 'LOST']
+if TYPE_CHECKING:
+    from human_tracker.vision.evidence import Cues
+    from human_tracker.vision.target_parameters import TargetParameters
+    from human_tracker.vision.tracker import TrackEstimate
+
+__all__ = ['TrackState', 'Event', 'transition', 'weak_frame', 'recovers', 'WAITING', 'TRACKING', 'LOST']
 
 
 class TrackState(StrEnum):
@@ -53,3 +61,34 @@ def transition(state: TrackState, event: Event) -> TrackState:
     if event is Event.RECOVERY:
         return TRACKING if state == LOST else state
     return _TO[event]
+
+
+def weak_frame(
+    estimate: TrackEstimate, parameters: TargetParameters, cues: Cues, appearance_known: bool, faceless: bool
+) -> bool:
+    """Whether a frame is weak: too few contour points on edges (``lost_confidence``), on moving
+    pixels with a motion mask (``lost_motion_support``), or skin inside the contour with skin
+    labels in the likelihood (``lost_skin_support``); colours unlike the target's known
+    appearance (``lost_appearance_distance``); or a head whose face was seen, ``faceless`` for a
+    while, with no motion mask to say where the person is (the edge fit alone slides onto
+    clutter: a panning camera)."""
+    p = parameters
+    return (
+        estimate.confidence < p.lost_confidence
+        or (appearance_known and estimate.appearance_distance > p.lost_appearance_distance)
+        or (cues.motion is not None and estimate.motion_support < p.lost_motion_support)
+        or (cues.likelihood_skin is not None and estimate.skin_support < p.lost_skin_support)
+        or (cues.motion is None and faceless)
+    )
+
+
+def recovers(
+    weak_frames: int, steady_frames: int, parameters: TargetParameters, *, region: bool, faces: bool, skin: bool
+) -> bool:
+    """Whether a LOST target is TRACKING again by its own evidence. Without a ``region`` cue
+    (motion, skin) the edge fit is the only evidence, unless ``faces`` are the proposals (a lost
+    head comes back through one); with a region, a lost target comes back through a hypothesis
+    (an edge fit on clutter is not the person), or, with ``skin`` labels, after ``lost_frames``
+    frames in a row that are not weak (skin labels flicker off a hand for a few frames)."""
+    by_edges = weak_frames == 0 and not region and not faces
+    return by_edges or (skin and steady_frames >= parameters.lost_frames)

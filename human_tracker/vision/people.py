@@ -3,56 +3,32 @@
 The paper's introduction asks for "the determination of the person's pose as well as the
 location of the hand(s)". A person here is a head (head-and-shoulders contour) and up to two
 hands (open or closed hand contours), each its own :class:`~human_tracker.vision.target.TargetTracker`
-over the same frames and cues; up to ``max_people`` people are followed. The heads run first
-on each frame, and the hands use what they found of the faces: a hand's tracker must keep off
-faces (a face is skin of about a hand's size), and its own detector cannot tell whose face it
-finds, and a second hand that looked for the face itself settled on it. So where there are more
-hands than one (a second hand, other people), a hand is handed where its person's head's
-contour puts the face while a face has just been found on that head, instead of running its own
-detector (which looks when the head has no fresh face: :meth:`PersonTracker._face_of`). Every
-hand keeps off where the other people's followed heads put their faces, found on them lately or
-not, and, among other people, its own person's face while it is hidden (``avoid``:
-:meth:`PersonTracker._faces_to_avoid`): no start there, and no skin there to its likelihood.
-A head whose face is not fresh (one taken up on a waving arm) hands nothing: kept off it, the
-hand lost its place to such a head (hand_wave as a person 0.95 -> 0.49). One person's only hand
-looks itself, as a hand alone: a face the hand hides is not found then, where the head's face,
-fresh for a few frames after it was last found, kept the hand passing in front of it off
-(hand2, twenty seeds: 0.588 -> 0.623 from the hand's box, 0.584 -> 0.612 without; handed
-nothing, a second hand settled on the face: hand2 with two hands, ten seeds, 0.519 -> 0.410).
+over the same frame's evidence; up to ``max_people`` people are followed. On each frame:
 
-Several targets, one frame: a target's tracker is handed the boxes the other targets of its
-kind hold (``exclude``; a hand's with the forearm below it): it starts no filter, hypothesis
-or face proposal inside one, so a second person's head is looked for away from the first, a
-second hand away from the first. That keeps new filters apart; one that drifts onto a region
-another holds is caught by the occupancy rule: when the centre of one target lies in the
-central half of the box of another head (the whole box of another hand, or the forearm below
-it, as the exclusion), the target taken up later is marked LOST (its id retired) and looks
-again elsewhere. The forearm too: the walker's hand slot, taken up on their neck on frame 48,
-slid down onto the first person's wrist and stayed there to frame 93 (people_crossing with
-two people, seed 8: IDF1 0.896 -> 0.936; seeds 0-19, MOTA 0.855 -> 0.874 on average). The
-central half, not the whole box: a person standing behind another overlaps the other's box,
-and marking them LOST gave their place to the one in front (people_crossing, person_1/head
-0.67 -> 1.00). Trackers wait their turn: a second hand runs only while the first is followed,
-the next person's head only while the person before has a head, their hands only while their
-own head is followed, so an idle slot costs nothing. A person after the first is taken up
-only by a face found on their head, and a hand only where its own person's head is the
-followed head nearest above it (:meth:`PersonTracker._may_take_up`): otherwise it stays LOST
-and another slot takes it.
+- **Heads first.** A hand keeps off faces (a face is skin of about a hand's size), so it uses
+  what the heads found. Where there is more than one hand slot, a hand is handed where its
+  person's head puts the face while a face has just been found on that head
+  (:meth:`PersonTracker._face_of`), instead of running its own detector; every hand keeps off
+  where the other people's followed heads put their faces, and, among other people, its own
+  person's face while it is hidden (:meth:`PersonTracker._faces_to_avoid`). One person's only
+  hand looks itself.
+- **Apart.** A target is handed the boxes the other targets of its kind hold (a hand's with
+  the forearm below it): no start, hypothesis or face proposal inside one. The occupancy rule
+  catches a filter that drifts onto another's region: when the centre of one target lies in
+  the central half of another head's box (the whole box of another hand), the one taken up
+  later is marked LOST and looks again elsewhere.
+- **Turns.** A second hand runs only while the first is followed, the next person's head only
+  while the person before has a head, their hands only while their own head is followed: an
+  idle slot costs nothing. A person after the first is taken up only by a face found on their
+  head, a hand only where its own person's head is the followed head nearest above it
+  (:meth:`PersonTracker._may_take_up`).
 
-Ids: every time a target is taken up (its filter starts TRACKING after WAITING or LOST, or
-restarts farther than the target's width from where it was: onto another face, another
-person) it gets a new id, never reused while the tracker lives. A target LOST reports no id,
-but its id is held for ``id_hold_frames``: taken up again within ``HOLD_REACH`` widths of
-where it was last followed, it is the same target come out from behind something (a hand
-passing behind the walker's head on people_crossing, LOST for 6 frames), and gets its id
-back; the occupancy rule, a jump or a slot's turn ending retires it at once. A held target is
-taken up by its own slot only, and only where that slot may take up a target at all: a hand
-lost in front of the walker's face, whose filter settled on a skin-coloured square below the
-walker's head, took its id back there (people_crossing with two people and skin cells
-merged by colour, seed 9: the hand 0.393, an identity switch); refused there, the slot holds
-the id until the hand comes out, and the walker's hand slot, which took it up then, leaves
-it to the slot holding it (0.760, no switch). A consumer that sees the same id on two
-frames sees the same target.
+Ids: every time a target is taken up (TRACKING after WAITING or LOST, or restarted farther than
+its width from where it was) it gets a new id, never reused while the tracker lives. A LOST
+target reports no id, but its id is held for ``id_hold_frames``: taken up again by its own slot
+within ``HOLD_REACH`` widths of where it was, it gets it back (a hand that passed behind
+someone's head). A consumer that sees the same id on two frames sees the same target. What
+each rule was measured against: docs/decisions/two-people.md and hand2-as-a-person.md.
 """
 
 from __future__ import annotations
@@ -64,15 +40,10 @@ from typing import NamedTuple
 import numpy as np
 
 from human_tracker.vision.boxes import Box, box_centre, centre_within
+from human_tracker.vision.evidence import Evidence
 from human_tracker.vision.faces import FACE_ON_HEAD
 from human_tracker.vision.lifecycle import LOST
-from human_tracker.vision.target import (
-    SharedFrames,
-    TargetParameters,
-    TargetResult,
-    TargetTracker,
-    parameters_for,
-)
+from human_tracker.vision.target import TargetParameters, TargetResult, TargetTracker, parameters_for
 from human_tracker.vision.templates import ContourTemplate, make_template
 from human_tracker.vision.tracker import TrackerParameters
 
@@ -260,12 +231,13 @@ class PersonTracker:
         w, h), camera pixels; the others start by themselves."""
         self.first(kind or self.kinds[0]).initialise_from_box(box)
 
-    def working_frame(self, image: np.ndarray) -> SharedFrames:
-        """The first target's working frame of ``image`` (its reduced image, colour bins and
-        edges), for :meth:`process`: a node waiting for the frame's masks computes it meanwhile."""
-        shared: SharedFrames = {}
-        self.slots[0].tracker.working_frame(image, shared)
-        return shared
+    def evidence(self, image: np.ndarray) -> Evidence:
+        """The evidence of ``image`` with the first target's working frame (its reduced image,
+        colour bins and edges) computed: a node waiting for the frame's cues computes it
+        meanwhile, then adds them (:meth:`~human_tracker.vision.evidence.Evidence.with_cues`)."""
+        evidence = Evidence(image)
+        evidence.working(self.slots[0].tracker.frame_settings(image.shape[1]))
+        return evidence
 
     def reset(self) -> None:
         """Forget every target; the ids already given stay retired."""
@@ -277,13 +249,15 @@ class PersonTracker:
         image: np.ndarray,
         motion: np.ndarray | None = None,
         skin: np.ndarray | None = None,
-        shared: SharedFrames | None = None,
         camera_motion: np.ndarray | None = None,
         stamp_ns: int | None = None,
     ) -> list[TrackedTarget]:
-        """Track every target on one frame (arguments as :meth:`TargetTracker.process`; beside a
-        hand, the skin labels go to the hands only: a head-and-shoulders outline is not skin).
-        ``shared``: working frames of ``image`` computed beforehand (:meth:`working_frame`).
+        """:meth:`step` on the evidence of ``image`` and its cues."""
+        return self.step(Evidence(image, motion, skin, camera_motion, stamp_ns))
+
+    def step(self, evidence: Evidence) -> list[TrackedTarget]:
+        """Track every target on one frame's ``evidence``; beside a hand, the skin labels go to
+        the hands only (a head-and-shoulders outline is not skin).
 
         Returns:
             One outcome per slot that runs on this frame (the first person's always), in the
@@ -293,8 +267,6 @@ class PersonTracker:
         faces: dict[int, Box | None] = {}  # by person
         followed: dict[int, Box] = {}  # where each followed head puts its face
         faced: set[int] = set()  # the people whose followed head a face was found on
-        # Trackers with the same working settings (the hands; the heads) reduce the frame once.
-        shared = {} if shared is None else shared
         # Heads first: a hand keeps off the faces they find, every person's.
         for slot in sorted(self.slots, key=lambda o: o.kind != 'head'):
             if not self._runs(slot):
@@ -308,39 +280,21 @@ class PersonTracker:
                 _held_region(o) for o in self.slots if o is not slot and o.kind == slot.kind and o.box is not None
             ]
             if slot.kind == 'head':
-                single = skin if len(self.kinds) == 1 else None
+                own = evidence if len(self.kinds) == 1 else evidence.with_cues(skin=None)
                 # Identified before the hands look: a head this slot may not take up (a later
                 # person's without a face) is LOST, no one's face to hand over or keep off.
-                found = tracker.process(
-                    image,
-                    motion,
-                    single,
-                    exclude=exclude,
-                    shared=shared,
-                    camera_motion=camera_motion,
-                    stamp_ns=stamp_ns,
-                )
+                found = tracker.step(own, exclude=exclude)
                 result = self._identify(slot, found)
                 if self.hands_handed_faces:
                     faces[slot.person] = self._face_of(tracker, result)
                 if result.tracking:
                     followed[slot.person] = FACE_ON_HEAD.box(result.estimate.state)
-                    if tracker.face_relation is not None:
+                    if tracker.anchor.face_relation is not None:
                         faced.add(slot.person)
             else:
                 face = faces.get(slot.person)
                 avoid = self._faces_to_avoid(slot.person, followed, faced, face)
-                found = tracker.process(
-                    image,
-                    motion,
-                    skin,
-                    face=face,
-                    exclude=exclude,
-                    avoid=avoid,
-                    shared=shared,
-                    camera_motion=camera_motion,
-                    stamp_ns=stamp_ns,
-                )
+                found = tracker.step(evidence, face=face, exclude=exclude, avoid=avoid)
                 result = self._identify(slot, found)
             ran.append((slot, result))
         ran = self._keep_apart(sorted(ran, key=lambda run: self.slots.index(run[0])))

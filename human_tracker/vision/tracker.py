@@ -4,18 +4,15 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
 from human_tracker.vision.camera_motion import move_states
 from human_tracker.vision.dynamics import predict
-from human_tracker.vision.measurement import (
-    ContourFit,
-    colour_costs,
-    contour_costs,
-    log_likelihood,
-    normalised_weights,
-)
+from human_tracker.vision.filter_parameters import TrackerParameters
+from human_tracker.vision.likelihood import TERMS, LikelihoodTerm, Observation, colour_term, contour_term, weigh
+from human_tracker.vision.measurement import ContourFit, normalised_weights
 from human_tracker.vision.particle_filter import (
     effective_sample_size,
     gaussian_cloud,
@@ -23,7 +20,7 @@ from human_tracker.vision.particle_filter import (
     weighted_covariance,
     weighted_estimate,
 )
-from human_tracker.vision.proposals import detection_log_likelihood, draw_with_proposals
+from human_tracker.vision.proposals import draw_with_proposals
 from human_tracker.vision.templates import ContourTemplate, reference_centres, transform_points
 
 __all__ = [
@@ -40,139 +37,6 @@ RESIDUAL_FLOOR = 1.2
 outline: its points find edges on the pixel grid, on a silhouette that is not exactly the
 template. Only the residual above it is the contour's position error
 (:attr:`TrackEstimate.position_error`); the bags' sharp outlines give residuals of 1.4-1.8."""
-
-
-@dataclass
-class TrackerParameters:
-    """The filter's constants; names in words, the paper's symbol in brackets.
-
-    Attributes:
-        num_particles: P, number of particles.
-        search_halfwidth: δ in eq. 2, pixels searched each side of a point on its normal.
-        miss_penalty: ρ in eqs. 2-3, cost of a point with no edge within δ.
-        likelihood_gain: K in eq. 1.
-        orientation_tolerance: Largest angle (radians) between an edge's gradient and the
-            contour normal for the edge to count as z(j); π/2 accepts any edge (the paper).
-        velocity_damping: a in the AR(2) matrix A (§2.2), in [0, 1].
-        process_noise: W of §2.2: std of x, y (pixels), s (fraction), θ (radians).
-        initial_spread: diagonal of Σ of §2.5, same units as process_noise.
-        interior_weight: w of the colour term (§3.2), > 1: how much less a non-skin pixel
-            inside the contour costs than a skin pixel outside.
-        colour_depth: How far inside and outside the contour the skin labels are sampled,
-            template units (a fraction of the reference region's width).
-        appearance_gain: λ of the appearance term exp(-λ D²)
-            (:mod:`~human_tracker.vision.appearance`), used when the tracker is given one.
-        min_scale: Smallest scale s (pixels per template unit: the reference region's width).
-            A contour not much larger than its search band δ fits any edge blob, so the
-            default is 2δ.
-        max_scale: Largest scale s, pixels per template unit.
-        importance_share: Share of the particles drawn around detections with the
-            importance correction f / g when there are detections (ICONDENSATION,
-            :mod:`~human_tracker.vision.proposals`).
-        restart_share: Share drawn around detections without correction.
-        proposal_spread: Standard deviations of the particles drawn around a detection,
-            same units as process_noise; also the width of a detection's likelihood term.
-        detection_floor: Likelihood of a state far from every detection relative to one on a
-            detection, on frames with detections
-            (:func:`~human_tracker.vision.proposals.detection_log_likelihood`); 1 leaves the
-            detections out of the likelihood (they then only draw particles).
-        shape_switch: With a template of several shapes (a hand open or closed), the
-            probability that a particle changes shape from one frame to the next, to another
-            shape drawn at random: the mixed state's transition.
-        variant_penalty: Cost of a particle drawn in one of the template's variants rather
-            than in the template itself, in missed points (times ρ): where both fit, the
-            template wins. A closed hand is a rounder, simpler outline than the open one and
-            fits skin-coloured blobs the open hand does not.
-        seed: Seed of the filter's random generator (a replay is then reproducible).
-    """
-
-    num_particles: int = 500
-    search_halfwidth: float = 12.0
-    miss_penalty: float = 144.0
-    likelihood_gain: float = 0.01
-    orientation_tolerance: float = 0.5
-    interior_weight: float = 2.0
-    colour_depth: float = 0.1
-    appearance_gain: float = 40.0
-    velocity_damping: float = 0.6
-    process_noise: tuple[float, float, float, float] = (5.0, 5.0, 0.01, 0.02)
-    initial_spread: tuple[float, float, float, float] = (8.0, 8.0, 0.08, 0.08)
-    min_scale: float = 24.0
-    max_scale: float = 2000.0
-    importance_share: float = 0.2
-    restart_share: float = 0.05
-    proposal_spread: tuple[float, float, float, float] = (6.0, 6.0, 0.08, 0.05)
-    detection_floor: float = 0.001
-    shape_switch: float = 0.1
-    variant_penalty: float = 8.0
-    seed: int = 0
-
-    def validate(self) -> None:
-        """Raise ValueError naming the first parameter out of its range."""
-        checks = [
-            (self.num_particles >= 1, f'num_particles must be >= 1, got {self.num_particles}'),
-            (self.search_halfwidth > 0, f'search_halfwidth (δ) must be > 0, got {self.search_halfwidth}'),
-            (self.miss_penalty >= 0, f'miss_penalty (ρ) must be >= 0, got {self.miss_penalty}'),
-            (
-                0 < self.orientation_tolerance <= np.pi / 2,
-                f'orientation_tolerance must be in (0, π/2], got {self.orientation_tolerance}',
-            ),
-            (self.interior_weight > 1, f'interior_weight (w) must be > 1, got {self.interior_weight}'),
-            (0 < self.colour_depth <= 1, f'colour_depth must be in (0, 1], got {self.colour_depth}'),
-            (self.likelihood_gain > 0, f'likelihood_gain (K) must be > 0, got {self.likelihood_gain}'),
-            (self.appearance_gain >= 0, f'appearance_gain (λ) must be >= 0, got {self.appearance_gain}'),
-            (
-                0 < self.min_scale <= self.max_scale,
-                f'need 0 < min_scale <= max_scale, got {self.min_scale}, {self.max_scale}',
-            ),
-            (0.0 <= self.velocity_damping <= 1.0, f'velocity_damping must be in [0, 1], got {self.velocity_damping}'),
-            (
-                len(self.process_noise) == 4 and min(self.process_noise) >= 0,
-                f'process_noise must be 4 values >= 0, got {self.process_noise}',
-            ),
-            (
-                len(self.initial_spread) == 4 and min(self.initial_spread) >= 0,
-                f'initial_spread must be 4 values >= 0, got {self.initial_spread}',
-            ),
-            (
-                len(self.proposal_spread) == 4 and min(self.proposal_spread) > 0,
-                f'proposal_spread must be 4 values > 0, got {self.proposal_spread}',
-            ),
-            (0.0 < self.detection_floor <= 1.0, f'detection_floor must be in (0, 1], got {self.detection_floor}'),
-            (0.0 <= self.shape_switch <= 1.0, f'shape_switch must be in [0, 1], got {self.shape_switch}'),
-            (self.variant_penalty >= 0, f'variant_penalty must be >= 0, got {self.variant_penalty}'),
-            (
-                min(self.importance_share, self.restart_share) >= 0 and self.importance_share + self.restart_share <= 1,
-                f'importance_share and restart_share must be >= 0 with a sum <= 1, got '
-                f'{self.importance_share}, {self.restart_share}',
-            ),
-        ]
-        for ok, message in checks:
-            if not ok:
-                raise ValueError(message)
-
-    def scaled(self, factor: float) -> TrackerParameters:
-        """The same filter on images resized by ``factor``: pixel lengths times ``factor``.
-
-        ρ and the costs are squared distances, so ρ scales by ``factor²`` and K by its
-        inverse: the likelihood of a state is then the same at every resolution.
-        """
-        if factor == 1.0:
-            return self
-        x, y, s, theta = self.process_noise
-        sx, sy, ss, stheta = self.initial_spread
-        px, py, ps, ptheta = self.proposal_spread
-        return replace(
-            self,
-            search_halfwidth=self.search_halfwidth * factor,
-            miss_penalty=self.miss_penalty * factor**2,
-            likelihood_gain=self.likelihood_gain / factor**2,
-            process_noise=(x * factor, y * factor, s, theta),
-            initial_spread=(sx * factor, sy * factor, ss, stheta),
-            proposal_spread=(px * factor, py * factor, ps, ptheta),
-            min_scale=self.min_scale * factor,
-            max_scale=self.max_scale * factor,
-        )
 
 
 @dataclass
@@ -216,6 +80,23 @@ class TrackEstimate:
     position_error: float = 0.0
     centre_covariance: np.ndarray = field(default_factory=lambda: np.zeros((2, 2)))
     shape: str = ''
+
+    def scaled(self, factor: float) -> TrackEstimate:
+        """The same estimate on images resized by ``factor``: lengths (and s) times ``factor``."""
+        if factor == 1.0:
+            return self
+        lengths = np.array([factor, factor, factor, 1.0])  # x, y, s, θ
+        x, y, w, h = self.box
+        return replace(
+            self,
+            state=self.state * lengths,
+            covariance=self.covariance * np.outer(lengths, lengths),
+            box=(x * factor, y * factor, w * factor, h * factor),
+            contour=self.contour * factor,
+            fit_residual=self.fit_residual * factor,
+            position_error=self.position_error * factor,
+            centre_covariance=self.centre_covariance * factor**2,
+        )
 
 
 # An appearance term: the squared Bhattacharyya distance D² of each state ``(P, 4)``, ``(P,)``.
@@ -277,9 +158,10 @@ def box_from_state(state: np.ndarray, template: ContourTemplate) -> tuple[float,
 class ContourTracker:
     """Particle filter over [x, y, s, θ] fitting a contour template to image edges.
 
-    The fields are the filter's whole state; ``step`` runs §2.2 (predict), §2.3-2.4 (weigh)
-    and resampling on one frame. With a template of several shapes each particle also carries
-    its shape (``labels``), which changes with probability ``shape_switch`` a frame.
+    The fields are the filter's whole state; ``step`` runs §2.2 (predict), §2.3-2.4 (weigh, by
+    the sum of the likelihood ``terms``) and resampling on one frame. With a template of
+    several shapes each particle also carries its shape (``labels``), which changes with
+    probability ``shape_switch`` a frame.
     """
 
     template: ContourTemplate
@@ -287,15 +169,17 @@ class ContourTracker:
     particles: np.ndarray | None = None
     previous: np.ndarray | None = None
     labels: np.ndarray | None = None
+    terms: tuple[LikelihoodTerm, ...] = TERMS
     rng: np.random.Generator = field(init=False)
-    _points: np.ndarray = field(init=False, repr=False)
-    _normals: np.ndarray = field(init=False, repr=False)
+    # Every shape's measurement points and normals, ``(K, N, 2)``, template units.
+    points: np.ndarray = field(init=False, repr=False)
+    normals: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         self.parameters.validate()
         self.rng = np.random.default_rng(self.parameters.seed)
-        self._points = np.stack([shape.points for shape in self.template.shapes])
-        self._normals = np.stack([shape.normals for shape in self.template.shapes])
+        self.points = np.stack([shape.points for shape in self.template.shapes])
+        self.normals = np.stack([shape.normals for shape in self.template.shapes])
 
     @property
     def initialised(self) -> bool:
@@ -343,8 +227,10 @@ class ContourTracker:
         detection_spread: np.ndarray | None = None,
         restart_share: float | None = None,
         detection_floor: float | None = None,
+        evidence: Any = None,
+        scale: float = 1.0,
     ) -> TrackEstimate:
-        """Predict, weigh against ``edges`` (and ``motion``, ``skin``, ``appearance``), estimate, resample.
+        """Predict, weigh by the filter's ``terms`` (:mod:`~human_tracker.vision.likelihood`), estimate, resample.
 
         Args:
             edges: ``(H, W) uint8`` edge map (non-zero on edges).
@@ -359,6 +245,9 @@ class ContourTracker:
             restart_share: Share drawn without correction (``restart_share`` when None).
             detection_floor: The detections' likelihood term's floor (``detection_floor``
                 when None; 1: the detections only draw particles).
+            evidence: The frame's whole evidence, for terms of other cues
+                (:attr:`~human_tracker.vision.likelihood.Observation.evidence`).
+            scale: This filter's pixels per camera pixel (``evidence``'s).
 
         Returns:
             The estimate for this frame.
@@ -391,29 +280,27 @@ class ContourTracker:
                 rng=self.rng,
             )
         np.clip(self.particles[:, 2], params.min_scale, params.max_scale, out=self.particles[:, 2])
-        fit = self.fit(edges, self.particles, motion, skin, self.labels)
-        distances = None if appearance is None else appearance(self.particles)
-        log_weights = self.log_weights(fit, distances)
+        floor = params.detection_floor if detection_floor is None else detection_floor
+        found = None if detections is None else np.asarray(detections, dtype=np.float64)
+        observation = Observation(edges, motion, skin, appearance, found, floor, evidence, scale)
+        log_weights, measures = weigh(self, self.terms, self.particles, self.labels, observation)
         if correction is not None:
             log_weights += correction
-            floor = params.detection_floor if detection_floor is None else detection_floor
-            if floor < 1.0:
-                log_weights += detection_log_likelihood(
-                    self.particles, np.asarray(detections, dtype=np.float64), np.asarray(params.proposal_spread), floor
-                )
         weights = normalised_weights(log_weights)
         state = weighted_estimate(self.particles, weights)
-        residual = _fit_residual(fit, weights, params.search_halfwidth)
+        matched, moving = measures['matched'], measures['moving']
+        residual = _fit_residual(matched, measures['squared_distances'], weights, params.search_halfwidth)
         position_error = float(np.sqrt(max(residual**2 - RESIDUAL_FLOOR**2, 0.0) + 1.0 / 12.0))
         centres = reference_centres(self.particles, self.template)
         shapes = self.template.shapes
         shape = shapes[int(np.argmax(np.bincount(self.labels, weights, len(shapes))))]
+        skin_share, distances = measures.get('skin'), measures.get('appearance_distances')
         estimate = TrackEstimate(
             state=state,
             covariance=weighted_covariance(self.particles, weights),
-            confidence=float(weights @ fit.matched) / self.template.num_points,
-            motion_support=float(weights @ fit.moving) / self.template.num_points,
-            skin_support=0.0 if fit.skin is None else float(weights @ fit.skin),
+            confidence=float(weights @ matched) / self.template.num_points,
+            motion_support=float(weights @ moving) / self.template.num_points,
+            skin_support=0.0 if skin_share is None else float(weights @ skin_share),
             appearance_distance=0.0 if distances is None else float(np.sqrt(weights @ distances)),
             fit_residual=residual,
             position_error=position_error,
@@ -428,13 +315,6 @@ class ContourTracker:
         self.previous = self.previous[keep]
         self.labels = self.labels[keep]
         return estimate
-
-    def log_weights(self, fit: ContourFit, appearance_distances: np.ndarray | None = None) -> np.ndarray:
-        """Unnormalised log weights: -K Σ φ (eq. 1), minus λ D² with an appearance term."""
-        log = log_likelihood(fit.costs, self.parameters.likelihood_gain)
-        if appearance_distances is not None:
-            log = log - self.parameters.appearance_gain * appearance_distances
-        return log
 
     def fit(
         self,
@@ -459,32 +339,13 @@ class ContourTracker:
             return ContourFit(
                 *(None if values is None else values.reshape(shapes, count)[best, np.arange(count)] for values in fit)
             )
-        params = self.parameters
-        fit = contour_costs(
-            edges,
-            states,
-            self._points,
-            self._normals,
-            search_halfwidth=params.search_halfwidth,
-            miss_penalty=params.miss_penalty,
-            motion=motion,
-            orientation_tolerance=params.orientation_tolerance,
-            labels=labels,
+        observation = Observation(edges, motion, skin)
+        contour = contour_term(self, states, labels, observation).measures
+        colour = colour_term(self, states, labels, observation).measures
+        costs = contour['costs'] + colour['costs'] if colour else contour['costs']
+        return ContourFit(
+            costs, contour['matched'], contour['moving'], contour['squared_distances'], colour.get('skin')
         )
-        if labels is not None and params.variant_penalty:
-            fit = fit._replace(costs=fit.costs + params.variant_penalty * params.miss_penalty * (labels > 0))
-        if skin is None:
-            return fit
-        colour, interior_skin = colour_costs(
-            skin,
-            states,
-            self._points,
-            self._normals,
-            interior_weight=params.interior_weight,
-            depth=params.colour_depth,
-            labels=labels,
-        )
-        return fit._replace(costs=fit.costs + params.miss_penalty * colour, skin=interior_skin)
 
     def _draw_labels(self, count: int) -> np.ndarray:
         """Shapes of a new cloud of ``count`` particles: each shape equally likely."""
@@ -511,9 +372,12 @@ class ContourTracker:
         self.labels = self.labels[keep]
 
 
-def _fit_residual(fit: ContourFit, weights: np.ndarray, search_halfwidth: float) -> float:
-    """:attr:`TrackEstimate.fit_residual` of ``fit`` over the particles' ``weights``."""
-    found = float(weights @ fit.matched)
+def _fit_residual(
+    matched: np.ndarray, squared_distances: np.ndarray, weights: np.ndarray, search_halfwidth: float
+) -> float:
+    """:attr:`TrackEstimate.fit_residual` of the points ``matched`` and their ``squared_distances``
+    over the particles' ``weights``."""
+    found = float(weights @ matched)
     if found < 1.0:
         return float(search_halfwidth)
-    return float(np.sqrt(float(weights @ fit.squared_distances) / found))
+    return float(np.sqrt(float(weights @ squared_distances) / found))

@@ -1,0 +1,167 @@
+"""The cue stages, and the one way the targets are assembled: what the offline command and the
+nodes share.
+
+Each stage turns a camera frame into one cue at its working width: the motion mask (background
+subtraction, §2.4.1: :func:`foreground`; optical flow, §2.4.2: :func:`flow_motion`), the skin
+labels (§3.2: :func:`skin_labels`, empty on a frame without colour, with the skin classes
+adapted to the tracked contour when asked) and the camera's shake (:func:`camera_shake`, the
+background model's measure). The nodes run one stage each, or all in one process
+(``pipeline``), and publish its cue; the offline command runs them as :class:`CueStages`, which
+gives each frame's :class:`~human_tracker.vision.evidence.Evidence`. :func:`build_people` makes
+the targets' trackers from their parameters.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from human_tracker.io.images import to_mono8
+from human_tracker.vision.background import BackgroundModel
+from human_tracker.vision.evidence import Evidence
+from human_tracker.vision.optical_flow import OpticalFlow
+from human_tracker.vision.people import PersonTracker, kinds_of
+from human_tracker.vision.resolution import to_working, working_scale, working_shape
+from human_tracker.vision.skin import SkinSegmenter, has_colour
+from human_tracker.vision.target import TargetTracker
+from human_tracker.vision.target_parameters import TargetParameters
+from human_tracker.vision.templates import make_template
+from human_tracker.vision.tracker import TrackerParameters
+
+__all__ = [
+    'MOTION_CUES',
+    'CueStages',
+    'build_people',
+    'camera_shake',
+    'flow_motion',
+    'foreground',
+    'skin_labels',
+    'warm_up',
+]
+
+MOTION_CUES = ('background', 'flow', 'none')
+"""The motion cue: background subtraction, optical flow, or none."""
+
+
+def foreground(model: BackgroundModel, image: np.ndarray, width: int) -> np.ndarray:
+    """The background model's foreground mask (``uint8``, 255 on moving pixels) of ``image``
+    (grey or BGR) reduced to working ``width``; the model learns the frame."""
+    return model.apply(to_working(to_mono8(image), width))
+
+
+def flow_motion(
+    flow: OpticalFlow,
+    image: np.ndarray,
+    width: int,
+    camera_matrix: np.ndarray | None = None,
+    angular_velocity: np.ndarray | None = None,
+    dt: float = 0.0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Optical flow from the frame before to ``image`` reduced to working ``width``, and its
+    motion mask (eqs. 3-4's γ); ``camera_matrix`` K (camera pixels) and ``angular_velocity``
+    (rad/s, over ``dt`` s) compensate the camera's rotation."""
+    grey = to_mono8(image)
+    scale = working_scale(grey.shape[1], width)
+    k = None if camera_matrix is None else np.diag([scale, scale, 1.0]) @ camera_matrix
+    return flow.apply(to_working(grey, width), camera_matrix=k, angular_velocity=angular_velocity, dt=dt)
+
+
+def skin_labels(
+    segmenter: SkinSegmenter, image: np.ndarray, width: int, contour: np.ndarray | None = None
+) -> tuple[np.ndarray, bool]:
+    """The skin labels of ``image`` at working ``width`` (:meth:`~human_tracker.vision.skin.SkinSegmenter.segment`),
+    and whether the skin classes adapted to the skin inside ``contour`` (``(N, 2)``, camera pixels:
+    the target's, a frame or two old; with the segmenter's ``adaptation_rate``). A frame without
+    colour (grey) has no skin: its labels are empty, so that a hand is never followed on it."""
+    if not has_colour(image):
+        return np.zeros(working_shape(image.shape, width), dtype=np.uint8), False
+    scale = working_scale(image.shape[1], width)
+    small = to_working(image, width)
+    labels = segmenter.segment(small, scale)
+    if contour is None:
+        return labels, False
+    region = np.zeros(small.shape[:2], dtype=np.uint8)
+    cv2.fillPoly(region, [np.round(contour * scale).astype(np.int32)], 255)
+    return labels, bool(segmenter.adapt(small, region, labels))
+
+
+def camera_shake(motion: BackgroundModel | OpticalFlow | None, frame_width: int) -> np.ndarray | None:
+    """The camera's motion onto the last frame as the background model measured it (``(2, 3)``,
+    in the pixels of frames ``frame_width`` wide), None without a background model."""
+    return motion.camera_motion_in(frame_width) if isinstance(motion, BackgroundModel) else None
+
+
+@dataclass
+class CueStages:
+    """The cue stages run in one process on each frame (the offline command).
+
+    Attributes:
+        motion: The motion stage (``MOTION_CUES``), None for none.
+        skin: The skin stage, None without skin.
+        width: The working width the cues are computed at.
+    """
+
+    motion: BackgroundModel | OpticalFlow | None
+    skin: SkinSegmenter | None
+    width: int
+
+    @classmethod
+    def build(cls, cue: str, skin: SkinSegmenter | None, width: int) -> CueStages:
+        """Stages with the motion ``cue`` (default parameters) and the ``skin`` segmenter."""
+        if cue not in MOTION_CUES:
+            raise ValueError(f'cue must be one of {", ".join(MOTION_CUES)}, got {cue!r}')
+        motion = BackgroundModel() if cue == 'background' else OpticalFlow() if cue == 'flow' else None
+        return cls(motion, skin, width)
+
+    def evidence(self, image: np.ndarray, stamp_ns: int | None = None, contour: np.ndarray | None = None) -> Evidence:
+        """The frame's evidence: ``image`` with its motion mask, skin labels and the camera's
+        shake (``contour``: the target's, the skin classes adapt to it)."""
+        motion = None
+        if isinstance(self.motion, BackgroundModel):
+            motion = foreground(self.motion, image, self.width)
+        elif isinstance(self.motion, OpticalFlow):
+            motion = flow_motion(self.motion, image, self.width)[1]
+        skin = None if self.skin is None else skin_labels(self.skin, image, self.width, contour)[0]
+        shake = camera_shake(self.motion, image.shape[1])
+        return Evidence(image, motion, skin, shake, stamp_ns)
+
+
+def build_people(
+    target: str,
+    filter_parameters: TrackerParameters,
+    parameters: Mapping[str, TargetParameters] | None = None,
+    *,
+    hands: int = 1,
+    max_people: int = 1,
+    id_hold_frames: int = 15,
+    template_file: str = '',
+    num_points: int = 48,
+) -> PersonTracker:
+    """The trackers of ``target`` (``head``, ``hand`` or ``person``: a head and ``hands`` hands
+    of up to ``max_people`` people), each kind with its ``parameters`` (its defaults where
+    absent); ``template_file`` replaces the first kind's contour, ``num_points`` N of §2.3."""
+    kinds = kinds_of(target, hands)
+    templates = {kind: make_template(kind, num_points) for kind in kinds}
+    templates[kinds[0]] = make_template(kinds[0], num_points, template_file)
+    people = max_people if target == 'person' else 1
+    return PersonTracker(kinds, filter_parameters, dict(parameters or {}), templates, people, id_hold_frames)
+
+
+def warm_up(people: PersonTracker) -> None:
+    """Run every compiled kernel the trackers of ``people`` use once, on a small random frame with
+    their settings, and load the face detectors' model: the first real frame is then not late."""
+    # Enough particles for a share of them to be drawn around a detection.
+    filter_parameters = TrackerParameters(num_particles=10, min_scale=1.0)
+    rng = np.random.default_rng(0)
+    blank = np.zeros((32, 32), dtype=np.uint8)
+    for tracker in people.trackers:
+        if tracker.detector is not None:
+            tracker.detector.load()
+        probe = TargetTracker(tracker.template, filter_parameters, tracker.parameters)
+        probe.initialise_from_box((8.0, 8.0, 16.0, 16.0))  # a box: the appearance kernels run too
+        probe.process(rng.integers(0, 256, (32, 32, 3), dtype=np.uint8), blank, blank)
+        # A detection (a face, a skin region) on a random frame is rare: its densities too.
+        probe.filter.step(blank, detections=np.array([[16.0, 16.0, 16.0, 0.0]]))

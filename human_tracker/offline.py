@@ -29,7 +29,7 @@ from human_tracker.evaluation.plots import plot_run
 from human_tracker.io.sequences import open_sequence
 from human_tracker.vision.cues import MOTION_CUES, CueStages, build_people
 from human_tracker.vision.people import TrackedTarget, kinds_of, targets_line
-from human_tracker.vision.skin import SkinParameters, SkinSegmenter, default_skin_model, has_colour
+from human_tracker.vision.skin import SkinParameters, SkinSegmenter, default_skin_model
 from human_tracker.vision.target_parameters import TargetParameters, parameters_for
 from human_tracker.vision.tracker import TrackerParameters, check_box_in_image
 
@@ -207,17 +207,18 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
                 table.writerow([frame.index, frame.stamp_ns, *[''] * 5, 'REJECTED', *[''] * _AFTER_STATUS])
                 continue
             start, cpu = time.perf_counter(), time.process_time()
-            if segmenter is not None and not has_colour(frame.image):
+            if frame.index == 0 and options.init is not None:
+                check_box_in_image(options.init, frame.image.shape)
+                people.initialise_from_box(options.init, init_kind)
+            evidence = stages.evidence(frame.image, frame.stamp_ns)
+            if stages.grey:
                 # No colour, no skin: empty labels (a hand is started and held by its skin, so
                 # none is followed: on grey frames one settled on blinds).
                 if grey_frames == 0:
                     sequence.warnings.append(GREY_WARNING.format(name=sequence.name, index=frame.index))
                     _LOG.warning(sequence.warnings[-1])
                 grey_frames += 1
-            if frame.index == 0 and options.init is not None:
-                check_box_in_image(options.init, frame.image.shape)
-                people.initialise_from_box(options.init, init_kind)
-            outcomes = people.step(stages.evidence(frame.image, frame.stamp_ns))
+            outcomes = people.step(evidence)
             elapsed += time.perf_counter() - start
             busy += time.process_time() - cpu
             motion_set_aside += outcomes[0].result.motion_set_aside

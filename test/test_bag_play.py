@@ -58,19 +58,25 @@ def _write_bag(path) -> list[int]:
     return stamps
 
 
+def _stamps_on(node: Node, topic: str) -> list[int]:
+    """The stamps (ns) of the images ``node`` receives on ``topic`` from now on, in order."""
+    received: list[int] = []
+    node.create_subscription(
+        Image,
+        topic,
+        lambda m: received.append(m.header.stamp.sec * 10**9 + m.header.stamp.nanosec),
+        QoSProfile(depth=50, reliability=ReliabilityPolicy.BEST_EFFORT),
+    )
+    return received
+
+
 def test_start_paused_resume_topics_remap_and_recorded_qos(tmp_path) -> None:
     stamps = _write_bag(tmp_path / 'bag')
     args = [str(tmp_path / 'bag'), '--start-paused', '--topics', '/cam/image', '--remap', '/cam/image:=/renamed/image']
     player = NodeProcess('human_tracker.ros.bag_play', args, environment(), tmp_path / 'bag_play.log').start()
     rclpy.init()
     node = Node('bag_play_test')
-    received: list[int] = []
-    node.create_subscription(
-        Image,
-        '/renamed/image',
-        lambda m: received.append(m.header.stamp.sec * 10**9 + m.header.stamp.nanosec),
-        QoSProfile(depth=50, reliability=ReliabilityPolicy.BEST_EFFORT),
-    )
+    received = _stamps_on(node, '/renamed/image')
     resume = node.create_client(Trigger, '/bag_play/resume')
     try:
         assert resume.wait_for_service(timeout_sec=30.0), player.output()
@@ -114,13 +120,7 @@ def test_start_offset_skips_the_bag_s_beginning_and_pause_holds_the_rest(tmp_pat
     player = NodeProcess('human_tracker.ros.bag_play', args, environment(), tmp_path / 'bag_play.log')
     rclpy.init()
     node = Node('bag_play_test')
-    received: list[int] = []
-    node.create_subscription(
-        Image,
-        '/cam/image',
-        lambda m: received.append(m.header.stamp.sec * 10**9 + m.header.stamp.nanosec),
-        QoSProfile(depth=50, reliability=ReliabilityPolicy.BEST_EFFORT),
-    )
+    received = _stamps_on(node, '/cam/image')
     pause, resume = (node.create_client(Trigger, f'/bag_play/{name}') for name in ('pause', 'resume'))
 
     def spin(seconds: float, until=lambda: False) -> None:

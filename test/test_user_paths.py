@@ -28,6 +28,7 @@ from ros_harness import environment, replay_and_collect
 from sensor_msgs.msg import CameraInfo, Image
 from std_srvs.srv import Trigger
 from test_optical_flow import _textured
+from test_ros_nodes import _pixel
 
 import human_tracker.ros.tracker_outputs as outputs_module
 from human_tracker.demo import node_arguments
@@ -382,10 +383,7 @@ def test_a_person_with_two_hands_over_dds_is_the_offline_command(tmp_path: Path)
         truth = frame.ground_truth
         hand_in_view += truth is not None
         centres = [
-            (
-                k[0, 0] * o.pose.pose.position.x / o.pose.pose.position.z + k[0, 2],
-                k[1, 1] * o.pose.pose.position.y / o.pose.pose.position.z + k[1, 2],
-            )
+            _pixel(o.pose.pose.position, k)
             for o in collector.targets.get(frame.stamp_ns, [])
             if '/hand_' in o.child_frame_id
         ]

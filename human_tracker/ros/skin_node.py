@@ -28,7 +28,6 @@ from human_tracker.vision.skin import (
     SkinParameters,
     SkinSegmenter,
     default_skin_model,
-    has_colour,
 )
 
 __all__ = ['SKIN_PARAMETERS', 'SkinNode', 'main']
@@ -143,14 +142,13 @@ class SkinNode(ImageStage):
 
     def handle_frame(self, image: np.ndarray, header: Any) -> np.ndarray:
         """Skin labels of one frame, published under ``header``."""
-        # A grey-level camera has no chromaticity: empty labels are published, so that a
-        # tracker waiting for this frame's skin labels is not held up.
-        self.last_frame_grey = not has_colour(image)
+        # The latest contour (a frame or two old) marks where the target is. A grey-level
+        # camera has no chromaticity: empty labels are published, so that a tracker waiting
+        # for this frame's skin labels is not held up.
+        skin, self.last_frame_grey, adapted = skin_labels(self.segmenter, image, self.working_width, self.contour)
         if self.last_frame_grey and self.grey_frames == 0:
             self.get_logger().warn('grey-level image: no skin can be found without colour')
         self.grey_frames += int(self.last_frame_grey)
-        # The latest contour (a frame or two old) marks where the target is.
-        skin, adapted = skin_labels(self.segmenter, image, self.working_width, self.contour)
         self.adaptations += int(adapted)
         self.counters.processed += 1
         self.skin_pub.publish(array_to_image(skin, 'mono8', header))

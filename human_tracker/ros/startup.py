@@ -98,20 +98,30 @@ def check_parameter_files(argv: Sequence[str]) -> list[Path]:
     """
     files = parameter_files(argv)
     for path in files:
-        if not path.is_file():
-            raise StartError(f'parameter file {path} does not exist')
-        try:
-            content = yaml.safe_load(path.read_text())
-        except (OSError, UnicodeDecodeError) as err:
-            raise StartError(f'parameter file {path} cannot be read: {err}') from err
-        except yaml.YAMLError as err:
-            where = getattr(err, 'problem_mark', None)
-            line = f' (line {where.line + 1})' if where is not None else ''
-            problem = getattr(err, 'problem', None) or str(err).splitlines()[0]
-            raise StartError(f'parameter file {path} is not valid YAML{line}: {problem}') from err
-        if not isinstance(content, dict):
-            raise StartError(f'parameter file {path} must map node names to ros__parameters')
+        _read_parameter_file(path)
     return files
+
+
+def _read_parameter_file(path: Path) -> dict[str, Any]:
+    """The YAML mapping of a ``--params-file``.
+
+    Raises:
+        StartError: One line naming the file and what is wrong with it.
+    """
+    if not path.is_file():
+        raise StartError(f'parameter file {path} does not exist')
+    try:
+        content = yaml.safe_load(path.read_text())
+    except (OSError, UnicodeDecodeError) as err:
+        raise StartError(f'parameter file {path} cannot be read: {err}') from err
+    except yaml.YAMLError as err:
+        where = getattr(err, 'problem_mark', None)
+        line = f' (line {where.line + 1})' if where is not None else ''
+        problem = getattr(err, 'problem', None) or str(err).splitlines()[0]
+        raise StartError(f'parameter file {path} is not valid YAML{line}: {problem}') from err
+    if not isinstance(content, dict):
+        raise StartError(f'parameter file {path} must map node names to ros__parameters')
+    return content
 
 
 _RULE_FLAGS = ('-p', '--param', '-r', '--remap')
@@ -216,7 +226,7 @@ def undeclared_parameters(nodes: Sequence[Node], argv: Sequence[str]) -> list[st
         problems.append(f"unknown parameter '{name}'{owner}{_closest(name, declared)}")
     names = {node.get_fully_qualified_name().strip('/') for node in nodes} | set(PACKAGE_NODES)
     for path in parameter_files(argv):
-        for section in _sections(yaml.safe_load(path.read_text()) or {}):
+        for section in _sections(_read_parameter_file(path)):
             if not _section_matches(section, names):
                 problems.append(
                     f"section '{section}' of {path} names no node{_closest(section.rsplit('/', 1)[-1], names)}"

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import cv2
 import numpy as np
@@ -34,6 +35,7 @@ from human_tracker.vision.tracker import TrackerParameters
 __all__ = [
     'MOTION_CUES',
     'CueStages',
+    'SkinLabels',
     'build_people',
     'camera_shake',
     'flow_motion',
@@ -69,23 +71,37 @@ def flow_motion(
     return flow.apply(to_working(grey, width), camera_matrix=k, angular_velocity=angular_velocity, dt=dt)
 
 
+class SkinLabels(NamedTuple):
+    """One frame's skin stage.
+
+    Attributes:
+        labels: The skin labels at the working width (empty on a frame without colour).
+        grey: The frame has no colour: no skin can be found in it.
+        adapted: The skin classes adapted to the skin inside the contour given.
+    """
+
+    labels: np.ndarray
+    grey: bool
+    adapted: bool
+
+
 def skin_labels(
     segmenter: SkinSegmenter, image: np.ndarray, width: int, contour: np.ndarray | None = None
-) -> tuple[np.ndarray, bool]:
+) -> SkinLabels:
     """The skin labels of ``image`` at working ``width`` (:meth:`~human_tracker.vision.skin.SkinSegmenter.segment`),
-    and whether the skin classes adapted to the skin inside ``contour`` (``(N, 2)``, camera pixels:
-    the target's, a frame or two old; with the segmenter's ``adaptation_rate``). A frame without
+    the skin classes adapted to the skin inside ``contour`` (``(N, 2)``, camera pixels: the
+    target's, a frame or two old; with the segmenter's ``adaptation_rate``). A frame without
     colour (grey) has no skin: its labels are empty, so that a hand is never followed on it."""
     if not has_colour(image):
-        return np.zeros(working_shape(image.shape, width), dtype=np.uint8), False
+        return SkinLabels(np.zeros(working_shape(image.shape, width), dtype=np.uint8), True, False)
     scale = working_scale(image.shape[1], width)
     small = to_working(image, width)
     labels = segmenter.segment(small, scale)
     if contour is None:
-        return labels, False
+        return SkinLabels(labels, False, False)
     region = np.zeros(small.shape[:2], dtype=np.uint8)
     cv2.fillPoly(region, [np.round(contour * scale).astype(np.int32)], 255)
-    return labels, bool(segmenter.adapt(small, region, labels))
+    return SkinLabels(labels, False, bool(segmenter.adapt(small, region, labels)))
 
 
 def camera_shake(motion: BackgroundModel | OpticalFlow | None, frame_width: int) -> np.ndarray | None:
@@ -102,11 +118,13 @@ class CueStages:
         motion: The motion stage (``MOTION_CUES``), None for none.
         skin: The skin stage, None without skin.
         width: The working width the cues are computed at.
+        grey: The last frame had no colour (no skin could be found in it).
     """
 
     motion: BackgroundModel | OpticalFlow | None
     skin: SkinSegmenter | None
     width: int
+    grey: bool = False
 
     @classmethod
     def build(cls, cue: str, skin: SkinSegmenter | None, width: int) -> CueStages:
@@ -124,7 +142,9 @@ class CueStages:
             motion = foreground(self.motion, image, self.width)
         elif isinstance(self.motion, OpticalFlow):
             motion = flow_motion(self.motion, image, self.width)[1]
-        skin = None if self.skin is None else skin_labels(self.skin, image, self.width, contour)[0]
+        skin = None
+        if self.skin is not None:
+            skin, self.grey, _ = skin_labels(self.skin, image, self.width, contour)
         shake = camera_shake(self.motion, image.shape[1])
         return Evidence(image, motion, skin, shake, stamp_ns)
 

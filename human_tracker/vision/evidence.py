@@ -11,6 +11,7 @@ likelihood, or as the area the edges are taken from.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -100,32 +101,33 @@ class Evidence:
         """The frame at ``settings`` (computed once per settings, :func:`working_frame`)."""
         frame = self._working.get(settings)
         if frame is None:
-            reduced = None
-            if settings.colour_bins or settings.colour_edges or self.image.ndim == 2:
-                # The frame as reduced and brightened serves the colour bins and colour edges of
-                # every target.
-                key = ('reduced', settings.width)
-                if key not in self._working:
-                    image = to_working(self.image, settings.width)
-                    self._working[key] = (image, normalise_exposure(image))
-                reduced = self._working[key]
-            frame = self._working[settings] = working_frame(self.image, settings, reduced)
+            frame = self._working[settings] = working_frame(self.image, settings, self._reduced)
         return frame  # type: ignore[return-value]
+
+    def _reduced(self, width: int) -> tuple[np.ndarray, np.ndarray]:
+        """The frame reduced to ``width``, as it is and brightened: computed once, it serves the
+        colour bins and colour edges of every target at that width."""
+        key = ('reduced', width)
+        if key not in self._working:
+            self._working[key] = _reduce(self.image, width)
+        return self._working[key]  # type: ignore[return-value]
 
 
 def working_frame(
-    image: np.ndarray, settings: FrameSettings, reduced: tuple[np.ndarray, np.ndarray] | None = None
+    image: np.ndarray,
+    settings: FrameSettings,
+    reduce: Callable[[int], tuple[np.ndarray, np.ndarray]] | None = None,
 ) -> WorkingFrame:
     """``image`` at ``settings``: reduced, brightened, its edges and colour bins.
 
-    ``reduced``: ``image`` already reduced to ``settings.width``, as it is and brightened.
-    A colour frame's edges come from its grey image reduced (unless ``colour_edges``), as the
-    cue stages do: a colour frame and its grey version then give the same edges.
+    ``reduce``: gives ``image`` reduced to a width, as it is and brightened (a cache of it); None:
+    computed here. A colour frame's edges come from its grey image reduced (unless
+    ``colour_edges``), as the cue stages do: a colour frame and its grey version then give the
+    same edges.
     """
-    if reduced is None and (settings.colour_bins or settings.colour_edges or image.ndim == 2):
-        working = to_working(image, settings.width)
-        reduced = (working, normalise_exposure(working))
-    small, gained = reduced if reduced is not None else (None, None)
+    small = gained = None
+    if settings.colour_bins or settings.colour_edges or image.ndim == 2:
+        small, gained = (reduce or (lambda width: _reduce(image, width)))(settings.width)
     bins = colour_bins(gained) if settings.colour_bins else None
     if small is None or (small.ndim == 3 and not settings.colour_edges):
         small = to_working(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), settings.width)
@@ -135,6 +137,12 @@ def working_frame(
         gained, blur_sigma=settings.blur_sigma, low_threshold=settings.canny_low, high_threshold=settings.canny_high
     )
     return WorkingFrame(gained, grey, edges, bins)
+
+
+def _reduce(image: np.ndarray, width: int) -> tuple[np.ndarray, np.ndarray]:
+    """``image`` reduced to working ``width``, as it is and brightened."""
+    small = to_working(image, width)
+    return small, normalise_exposure(small)
 
 
 class Cues(NamedTuple):

@@ -312,11 +312,10 @@ class TargetTracker:
     def _observe(self, evidence: Evidence) -> tuple[WorkingFrame, Cues]:
         """Stage 1: the frame and its cues at this track's working resolution; the particles
         carried with the camera's shake."""
-        width = self.working_width(evidence.image.shape[1])
-        self._rescale(working_scale(evidence.image.shape[1], width))
         settings = self.frame_settings(evidence.image.shape[1])
-        cues = working_cues(evidence, evidence.working(settings), width, self.parameters.scaled(self.scale))
+        self._rescale(working_scale(evidence.image.shape[1], settings.width))
         frame = evidence.working(settings)
+        cues = working_cues(evidence, frame, settings.width, self.parameters.scaled(self.scale))
         self._follow_camera(frame.grey, evidence.camera_motion)
         return frame, cues
 

@@ -14,6 +14,7 @@ from human_tracker.offline import TrackOptions, track_sequence
 from human_tracker.scenes.generator import SCENES, render_scene
 from human_tracker.vision.anchoring import face_and_neck
 from human_tracker.vision.background import BackgroundModel
+from human_tracker.vision.face_finder import FaceFinder
 from human_tracker.vision.faces import Detection
 from human_tracker.vision.skin import SkinSegmenter, default_skin_model
 from human_tracker.vision.starts import _moves_within, initial_region
@@ -92,7 +93,7 @@ def test_a_contour_on_the_face_found_last_is_lost(face_on_hand: bool) -> None:
     """A detected face where the hand's contour is: weak frames, LOST after lost_frames (5)."""
     frames = list(render_scene(SCENES['hand_wave']))[:12]
     tracker = TargetTracker(open_hand(), TrackerParameters(), HAND)
-    tracker.faces.detector = None  # the rendered scene has no face dlib finds: the face is given
+    tracker.faces.finder = None  # the rendered scene has no face dlib finds: the face is given
     segmenter, background = SkinSegmenter(default_skin_model()), BackgroundModel()
     tracker.initialise_from_box(frames[0].box)
     statuses = []
@@ -131,7 +132,8 @@ def test_a_face_found_under_the_hand_on_this_frame_makes_it_lost_at_once(seen: b
     its thread), not after lost_frames (5)."""
     frames = list(render_scene(SCENES['hand_wave']))[:4]
     tracker = TargetTracker(open_hand(), TrackerParameters(), dataclasses.replace(HAND, detector_thread=False))
-    detector = tracker.faces.detector = _FaceOnTheHand()
+    detector = _FaceOnTheHand()
+    tracker.faces.finder = FaceFinder(detector, thread=False)  # type: ignore[arg-type]
     segmenter, background = SkinSegmenter(default_skin_model()), BackgroundModel()
     tracker.initialise_from_box(frames[0].box)
     statuses = []

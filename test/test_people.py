@@ -215,8 +215,8 @@ def test_a_restart_far_from_the_target_is_a_new_id() -> None:
         )
         return TargetResult('TRACKING', estimate, initialised=True)
 
-    assert person._jumped(slot, restarted_at(141.0)) and not person._jumped(slot, restarted_at(139.0))
-    assert not person._jumped(slot, TargetResult('TRACKING', restarted_at(141.0).estimate))  # not restarted
+    assert slot.jumped(restarted_at(141.0)) and not slot.jumped(restarted_at(139.0))
+    assert not slot.jumped(TargetResult('TRACKING', restarted_at(141.0).estimate))  # not restarted
 
 
 def _estimate(x: float, y: float = 100.0, scale: float = 40.0) -> TrackEstimate:

@@ -277,13 +277,15 @@ def test_a_target_found_by_itself_looks_for_its_face_on_the_whole_frame_after_on
     tracker.status = 'TRACKING'
     for misses in (0, 1, 2):
         tracker.faces.face_misses = misses
-        tracker.faces._head_search(grey, tracker.parameters, tracker._predicted_face)()
+        tracker.faces.finder.new_frame()  # each search on a frame of its own
+        tracker.faces._head_search(grey, tracker.parameters, tracker._predicted_face).result()
     assert calls == ['near', 'frame', 'frame']
     calls.clear()
     tracker.initialise_from_box((135.0, 95.0, 50.0, 50.0))
     for misses in (0, 1, 2, 3):
         tracker.faces.face_misses = misses
-        tracker.faces._head_search(grey, tracker.parameters, tracker._predicted_face)()
+        tracker.faces.finder.new_frame()  # each search on a frame of its own
+        tracker.faces._head_search(grey, tracker.parameters, tracker._predicted_face).result()
     assert calls == ['near', 'near', 'near', 'frame']
 
 
@@ -302,7 +304,7 @@ def test_the_search_around_a_tracked_face_reaches_face_search_reach_sizes() -> N
         tracker.detector.detect = lambda image, upsample, c=crops: c.append(image.shape) or []
         tracker.filter.initialise(np.array([160.0, 120.0, 50.0, 0.0]))
         tracker.status = 'TRACKING'
-        tracker.faces._head_search(np.zeros((240, 320), np.uint8), parameters, tracker._predicted_face)()
+        tracker.faces._head_search(np.zeros((240, 320), np.uint8), parameters, tracker._predicted_face).result()
         found[reach] = crops[0]
     # 2 * reach * 40 px across, zoomed by 80 / (0.9 * 40).
     zoom = 80.0 / 36.0

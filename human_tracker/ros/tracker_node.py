@@ -34,23 +34,16 @@ from functools import partial
 from typing import Any
 
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from sensor_msgs.msg import RegionOfInterest
-from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 
-from human_tracker.ros.common import LATCHED_QOS, RESULT_QOS, node_status
+from human_tracker.ros.common import RESULT_QOS
 from human_tracker.ros.stage import DEFERRED, ImageStage, spin_node, stamp_ns
 from human_tracker.ros.stamp_matching import FrameGaps, HeldFrame, MaskInputs
-from human_tracker.ros.tracker_outputs import TrackerOutputs, estimate_values
-from human_tracker.ros.tracker_parameters import (
-    FILTER_PARAMETERS,
-    TARGET_PARAMETERS,
-    declare_settings,
-)
+from human_tracker.ros.tracker_outputs import StatusTopic, TrackerOutputs, estimate_values
+from human_tracker.ros.tracker_parameters import FILTER_PARAMETERS, TARGET_PARAMETERS, declare_settings, start_problem
 from human_tracker.vision.cues import build_people, warm_up
 from human_tracker.vision.evidence import Evidence
-from human_tracker.vision.lifecycle import LOST
 from human_tracker.vision.people import TrackedTarget, primary_target, targets_line
 from human_tracker.vision.resolution import same_frame
 from human_tracker.vision.skin import has_colour
@@ -87,10 +80,8 @@ class TrackerNode(ImageStage):
         self.last_result: TargetResult | None = None
         self.last_outcomes: list[TrackedTarget] = []
         self.outputs = TrackerOutputs(self)
-        self.status_pub = self.create_publisher(DiagnosticArray, 'status', LATCHED_QOS)
-        self.status_header = Header()
-        self.status_sent: tuple[str, str, bool] | None = None
-        self.create_timer(settings.status_period, self._publish_status, clock=self.steady_clock)
+        self.status_topic = StatusTopic(self)
+        self.create_timer(settings.status_period, self.status_topic.publish, clock=self.steady_clock)
         self.requested_box: tuple[float, float, float, float] | None = None
         self.create_subscription(RegionOfInterest, 'init_roi', self._on_init_roi, RESULT_QOS)
         self.create_service(Trigger, '~/reset', self._on_reset)
@@ -124,7 +115,7 @@ class TrackerNode(ImageStage):
             self.get_logger().warn(self.tracker.proposals_problem)
         if subscribe_image:
             self.check_start(motion=motion != 'none', skin=settings.skin_input)
-        self._publish_status()
+        self.status_topic.publish()
         self.get_logger().info(
             f'configured: tracking {settings.target} with {filter_parameters.num_particles} particles, '
             f'{self.template.num_points} points, mask inputs: {", ".join(self.mask_topics) or "none"}'
@@ -145,15 +136,10 @@ class TrackerNode(ImageStage):
         Without ``init_box`` the filter starts from the region of ``init_region``: the motion
         mask or the skin labels. A node given neither waits for ever; it is told at start.
         """
-        if self.init_box is not None or self.describing:
-            return
-        region = self.tracker.parameters.init_region
-        if (region == 'motion' and not motion) or (region == 'skin' and not skin):
-            needs = 'motion_input (foreground or motion)' if region == 'motion' else 'skin_input: true'
-            self.start_problem = (
-                f'cannot start by itself: init_region is {region} but no {region} input; set {needs}, or init_box'
-            )
-            self.get_logger().warn(self.start_problem)
+        if self.init_box is None and not self.describing:
+            self.start_problem = start_problem(self.tracker.parameters.init_region, motion=motion, skin=skin)
+            if self.start_problem is not None:
+                self.get_logger().warn(self.start_problem)
 
     def warm_up(self) -> None:
         """Run the compiled kernels once, with this node's settings, so the first real frame is not late."""
@@ -256,9 +242,7 @@ class TrackerNode(ImageStage):
         self.primary = self.people.slot(primary.name).tracker
         result = primary.result
         self.last_result, self.last_outcomes = result, outcomes
-        self.status_header = header
-        if self._status_key() != self.status_sent:
-            self._publish_status()
+        self.status_topic.on_frame(header)
         if result.motion_set_aside:
             self.frames_motion_set_aside += 1
             self.get_logger().warn(
@@ -334,28 +318,10 @@ class TrackerNode(ImageStage):
         self.people.reset()
         self.init_box = self.requested_box = None
         self.last_result, self.last_outcomes = None, []
-        self._publish_status()
+        self.status_topic.publish()
         response.success = True
         response.message = 'WAITING for motion, or a box on init_roi'
         return response
-
-    def _publish_status(self) -> None:
-        """The tracker's state and its cues' support, stamped with the last frame tracked."""
-        state = self.primary.status
-        values = estimate_values(self.last_result)
-        warnings = self.warnings()
-        if warnings:
-            values['warnings'] = '; '.join(warnings)
-        level = DiagnosticStatus.WARN if state == LOST or warnings else DiagnosticStatus.OK
-        status = node_status(self, state, values, level=level)
-        self.status_pub.publish(DiagnosticArray(header=self.status_header, status=[status]))
-        self.status_sent = self._status_key()
-
-    def _status_key(self) -> tuple[str, str, bool]:
-        """What a status message is sent at once on a change of: the state and the shape (a
-        hand opening or closing is a gesture)."""
-        estimate = None if self.last_result is None else self.last_result.estimate
-        return self.primary.status, '' if estimate is None else estimate.shape, self.last_frame_grey
 
     def diagnostics_state(self) -> tuple[str, dict[str, Any]]:
         extra: dict[str, Any] = {

@@ -12,6 +12,7 @@ from __future__ import annotations
 from typing import Any, NamedTuple
 
 import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import (
     Point32,
     PolygonStamped,
@@ -21,15 +22,17 @@ from geometry_msgs.msg import (
 )
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import Image
+from std_msgs.msg import Header
 from visualization_msgs.msg import MarkerArray
 
 from human_tracker.drawing import annotate, draw_target
-from human_tracker.ros.common import RESULT_QOS
+from human_tracker.ros.common import LATCHED_QOS, RESULT_QOS, node_status
 from human_tracker.ros.image_conversion import array_to_image
 from human_tracker.ros.markers import cleared_markers, target_markers
 from human_tracker.ros.tracker_parameters import SURFACE_TO_CENTRE, TARGET_WIDTHS
 from human_tracker.vision.camera import metric_positions, position_covariance, undistort_pixels
 from human_tracker.vision.depth import region_depth
+from human_tracker.vision.lifecycle import LOST
 from human_tracker.vision.people import TrackedTarget, targets_line
 from human_tracker.vision.target import TargetResult, TargetTracker
 from human_tracker.vision.tracker import TrackEstimate, box_from_state
@@ -38,6 +41,7 @@ __all__ = [
     'UNKNOWN_VARIANCE',
     'estimate_values',
     'MetricPose',
+    'StatusTopic',
     'TrackerOutputs',
     'contour_message',
     'debug_view',
@@ -331,3 +335,37 @@ class TrackerOutputs:
         markers = target_markers(header, contour, depth, k, kind=node.kind, ident=0, status=result.status)
         self.markers_pub.publish(markers)
         self.markers_shown = True
+
+
+class StatusTopic:
+    """The node's latched ``status``: the primary target's state and its cues' support, stamped
+    with the last frame tracked; sent at once when the state or the shape changes (a hand opening
+    or closing is a gesture), or the frames lose their colour, and every ``status_period``."""
+
+    def __init__(self, node: Any) -> None:
+        self.node = node
+        self.pub = node.create_publisher(DiagnosticArray, 'status', LATCHED_QOS)
+        self.header = Header()
+        self.sent: tuple[str, str, bool] | None = None
+
+    def on_frame(self, header: Any) -> None:
+        """A frame was tracked under ``header``: publish if what a consumer waits for changed."""
+        self.header = header
+        if self._key() != self.sent:
+            self.publish()
+
+    def publish(self) -> None:
+        """Publish the state now."""
+        node = self.node
+        values = estimate_values(node.last_result)
+        warnings = node.warnings()
+        if warnings:
+            values['warnings'] = '; '.join(warnings)
+        state = node.primary.status
+        level = DiagnosticStatus.WARN if state == LOST or warnings else DiagnosticStatus.OK
+        self.pub.publish(DiagnosticArray(header=self.header, status=[node_status(node, state, values, level=level)]))
+        self.sent = self._key()
+
+    def _key(self) -> tuple[str, str, bool]:
+        estimate = None if self.node.last_result is None else self.node.last_result.estimate
+        return self.node.primary.status, '' if estimate is None else estimate.shape, self.node.last_frame_grey

@@ -359,3 +359,14 @@ def declare_settings(node: Any) -> TrackerSettings:
         max_pending=max_pending,
         status_period=status_period,
     )
+
+
+def start_problem(init_region: str, *, motion: bool, skin: bool) -> str | None:
+    """Why a tracker without ``init_box`` whose X_0 comes from ``init_region`` can never start by
+    itself with these inputs (a motion mask, skin labels), or None."""
+    if (init_region == 'motion' and not motion) or (init_region == 'skin' and not skin):
+        needs = 'motion_input (foreground or motion)' if init_region == 'motion' else 'skin_input: true'
+        return (
+            f'cannot start by itself: init_region is {init_region} but no {init_region} input; set {needs}, or init_box'
+        )
+    return None

@@ -23,7 +23,7 @@ from human_tracker.vision.edges import edge_map
 from human_tracker.vision.exposure import normalise_exposure
 from human_tracker.vision.morphology import disk
 from human_tracker.vision.resolution import same_frame, to_working, working_shape
-from human_tracker.vision.target_parameters import TargetParameters
+from human_tracker.vision.target_parameters import CueParameters
 
 __all__ = ['Cues', 'Evidence', 'FrameSettings', 'WorkingFrame', 'at_working', 'working_cues', 'working_frame']
 
@@ -171,7 +171,7 @@ class Cues(NamedTuple):
     evidence: Evidence
 
 
-def working_cues(evidence: Evidence, frame: WorkingFrame, width: int, parameters: TargetParameters) -> Cues:
+def working_cues(evidence: Evidence, frame: WorkingFrame, width: int, parameters: CueParameters) -> Cues:
     """The cues of ``evidence`` at working ``width`` for a target with ``parameters`` (scaled to
     the working frame): each cue in the likelihood or as a mask on ``frame``'s edges."""
     shape = evidence.image.shape[:2]

@@ -14,18 +14,15 @@ Everything here is in working pixels.
 from __future__ import annotations
 
 from collections.abc import Callable
-from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
-from functools import partial
-from typing import NamedTuple
 
-import cv2
 import numpy as np
 
 from human_tracker.vision.boxes import Box
 from human_tracker.vision.camera_motion import move_states
+from human_tracker.vision.face_finder import FaceFinder, Found
 from human_tracker.vision.faces import FACE_ON_HEAD, Detection, FaceDetector, face_detector_available
-from human_tracker.vision.target_parameters import TargetParameters
+from human_tracker.vision.target_parameters import FaceParameters
 
 __all__ = [
     'PATIENT_SEARCHES',
@@ -42,23 +39,19 @@ SMALLEST_FACE_IN_FRAME = 40.0
 """The whole-frame search (upsampled once) finds faces from about this wide (working pixels)."""
 SEARCH_REACH = 4.0
 """A face last seen smaller than :data:`SMALLEST_FACE_IN_FRAME` is looked for within this many of its sizes."""
+AVOIDED_FACE_REACH = 2.0
+"""A hand looks for the face it keeps off within this many of its sizes of where it was found last."""
 PATIENT_SEARCHES = 8
 """Runs in a row without a face after which the detector runs at most every ``patient_every`` frames."""
 
 
-class _Search(NamedTuple):
-    """One run of the face detector: the grey working frame it looks at, and the run."""
-
-    grey: np.ndarray
-    run: Callable[[], list[Detection]]
-
-
 @dataclass
 class FaceSchedule:
-    """A target's face detector (None without dlib), its schedule and what it found.
+    """A target's face searches (on a detector it may share), their schedule and what they found.
 
     Attributes:
-        detector: The detector, None when the target wants none or dlib is missing.
+        finder: The detector's searches (:mod:`~human_tracker.vision.face_finder`), shared by
+            the targets of a person tracker; None when the target wants none or dlib is missing.
         frames: Frames scheduled so far (since the last reset).
         searched_on: The frame of the last run.
         faceless_runs: Runs in a row that found no face.
@@ -69,7 +62,7 @@ class FaceSchedule:
         late: Whether the faces delivered on this frame were found on the frame before.
     """
 
-    detector: FaceDetector | None = None
+    finder: FaceFinder | None = None
     frames: int = 0
     searched_on: int = 0
     faceless_runs: int = 0
@@ -77,18 +70,21 @@ class FaceSchedule:
     last_face: Box | None = None
     detected_on: np.ndarray | None = field(default=None, repr=False)
     late: bool = False
-    _worker: ThreadPoolExecutor | None = field(default=None, repr=False)
-    _pending: tuple[_Search, Future[list[Detection]]] | None = field(default=None, repr=False)
+    _pending: Found | None = field(default=None, repr=False)
     _stamp_ns: int | None = None
 
     @classmethod
-    def for_target(cls, parameters: TargetParameters) -> FaceSchedule:
-        """The schedule of a target with ``parameters``: a detector (and its thread) when it
-        wants faces and dlib is there."""
+    def for_target(cls, parameters: FaceParameters, finder: FaceFinder | None = None) -> FaceSchedule:
+        """The schedule of a target with ``parameters``: on ``finder`` (a detector of its own,
+        and its thread, when None) when it wants faces and dlib is there."""
         if not (parameters.wants_faces and face_detector_available()):
             return cls()
-        worker = ThreadPoolExecutor(1, 'face_detector') if parameters.detector_thread else None
-        return cls(FaceDetector(), _worker=worker)
+        return cls(finder or FaceFinder(FaceDetector(), parameters.detector_thread))
+
+    @property
+    def detector(self) -> FaceDetector | None:
+        """The detector, None when the target wants none or dlib is missing."""
+        return None if self.finder is None else self.finder.detector
 
     def reset(self) -> None:
         """Forget what was found; the schedule starts again."""
@@ -110,12 +106,12 @@ class FaceSchedule:
         self.last_face, self.face_misses = face, 0
         self._pending = None
 
-    def waits(self, stamp_ns: int | None, parameters: TargetParameters) -> bool:
+    def waits(self, stamp_ns: int | None, parameters: FaceParameters) -> bool:
         """Whether this frame's run serves this frame: without a thread, or when the frame comes
         more than ``detector_wait_interval`` after the one before (whose stamp it keeps: the
         next frame is timed from this one)."""
         last, self._stamp_ns = self._stamp_ns, stamp_ns
-        if self._worker is None:
+        if self.finder is None or not self.finder.threaded:
             return True
         if stamp_ns is None or last is None or stamp_ns <= last:
             return False
@@ -125,7 +121,7 @@ class FaceSchedule:
         self,
         image: np.ndarray,
         waits: bool,
-        parameters: TargetParameters,
+        parameters: FaceParameters,
         predicted: Callable[[int], np.ndarray | None],
         carry: Callable[[list[Detection]], list[Detection]],
     ) -> list[Detection] | None:
@@ -143,42 +139,46 @@ class FaceSchedule:
         self.frames += 1
         delivered = None
         if self._pending is not None:
-            (search, future), self._pending = self._pending, None
-            delivered = carry(self._found(search, future.result(), parameters))
+            pending, self._pending = self._pending, None
+            delivered = carry(self._found(pending, parameters))
         search = self._search(image, parameters, predicted)
         self.late = delivered is not None
         if search is None:
             return delivered
         if waits:
             self.late = False
-            return self._found(search, search.run(), parameters)
-        assert self._worker is not None
-        self._pending = (search, self._worker.submit(search.run))
+            return self._found(search, parameters)
+        self._pending = search
         return delivered
+
+    def due(self, parameters: FaceParameters, frame: int | None = None) -> bool:
+        """Whether a run is due on the ``frame``-th frame scheduled (the next when None)."""
+        frame = self.frames + 1 if frame is None else frame
+        if self.finder is None or (frame - 1) % parameters.detect_every:
+            return False
+        return self.faceless_runs < PATIENT_SEARCHES or frame - self.searched_on >= parameters.patient_every
 
     def localise(self, box: Box) -> Box:
         """``box``, a face found by the last run, found again precisely on its frame."""
-        assert self.detector is not None and self.detected_on is not None
-        localise = partial(self.detector.localise, self.detected_on, box)
-        return localise() if self._worker is None else self._worker.submit(localise).result()
+        assert self.finder is not None and self.detected_on is not None
+        return self.finder.localise(self.detected_on, box)
 
     def _search(
-        self, image: np.ndarray, parameters: TargetParameters, predicted: Callable[[int], np.ndarray | None]
-    ) -> _Search | None:
-        """The detector's run on this frame, if one is due."""
-        if self.detector is None or (self.frames - 1) % parameters.detect_every:
+        self, image: np.ndarray, parameters: FaceParameters, predicted: Callable[[int], np.ndarray | None]
+    ) -> Found | None:
+        """The detector's search on this frame, if one is due."""
+        if not self.due(parameters, self.frames):
             return None
-        if self.faceless_runs >= PATIENT_SEARCHES and self.frames - self.searched_on < parameters.patient_every:
-            return None
+        assert self.finder is not None
         self.faceless_runs += 1
         self.searched_on = self.frames
-        grey = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
         if parameters.proposals == 'faces':
-            return _Search(grey, self._head_search(grey, parameters, predicted))
-        return _Search(grey, self._avoided_search(grey))
+            return self._head_search(image, parameters, predicted)
+        return self._avoided_search(image)
 
-    def _found(self, search: _Search, found: list[Detection], parameters: TargetParameters) -> list[Detection]:
-        """Take a run's faces into the bookkeeping."""
+    def _found(self, search: Found, parameters: FaceParameters) -> list[Detection]:
+        """Take a search's faces into the bookkeeping."""
+        found = search.result()
         self.detected_on = search.grey
         if found:
             self.faceless_runs = 0
@@ -192,27 +192,27 @@ class FaceSchedule:
         return found
 
     def _head_search(
-        self, grey: np.ndarray, parameters: TargetParameters, predicted: Callable[[int], np.ndarray | None]
-    ) -> Callable[[], list[Detection]]:
-        """A head's run: near the predicted face while the head is followed and its face was
+        self, image: np.ndarray, parameters: FaceParameters, predicted: Callable[[int], np.ndarray | None]
+    ) -> Found:
+        """A head's search: near the predicted face while the head is followed and its face was
         found lately; else on the whole frame, or, for a face last seen too small for that,
         around where it was."""
-        assert self.detector is not None
+        assert self.finder is not None
         state = predicted(self.face_misses)
         if state is not None:
-            return partial(self.detector.detect_near, grey, FACE_ON_HEAD.box(state), reach=parameters.face_search_reach)
+            return self.finder.near(image, FACE_ON_HEAD.box(state), parameters.face_search_reach)
         self.face_misses = 0
         if self.last_face is not None and self.last_face[2] < SMALLEST_FACE_IN_FRAME:
-            return partial(self.detector.detect_near, grey, self.last_face, reach=SEARCH_REACH)
-        return partial(self.detector.detect, grey, upsample=1)
+            return self.finder.near(image, self.last_face, SEARCH_REACH)
+        return self.finder.whole(image)
 
-    def _avoided_search(self, grey: np.ndarray) -> Callable[[], list[Detection]]:
-        """A hand's run: around the last face found for ``SEARCH_AFTER_MISSES`` runs (the hand
-        may hide it for a while), then on the whole frame."""
-        assert self.detector is not None
+    def _avoided_search(self, image: np.ndarray) -> Found:
+        """A hand's search: around the last face found for ``SEARCH_AFTER_MISSES`` runs (the
+        hand may hide it for a while), then on the whole frame."""
+        assert self.finder is not None
         if self.last_face is not None and self.face_misses < SEARCH_AFTER_MISSES:
-            return partial(self.detector.detect_near, grey, self.last_face)
-        return partial(self.detector.detect, grey, upsample=1)
+            return self.finder.near(image, self.last_face, AVOIDED_FACE_REACH)
+        return self.finder.whole(image)
 
 
 def carry_faces(

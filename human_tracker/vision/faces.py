@@ -18,7 +18,7 @@ import numpy as np
 
 from human_tracker.vision.boxes import BoxRelation
 
-__all__ = ['FACE_ON_HEAD', 'Detection', 'FaceDetector', 'face_detector_available']
+__all__ = ['FACE_ON_HEAD', 'Detection', 'FaceDetector', 'face_detector_available', 'near_region']
 
 # Where dlib's face box sits on the head-and-shoulders contour (template units: the head is
 # one unit wide, centred on the origin): eyebrows to chin, a little below the head's centre.
@@ -108,14 +108,15 @@ class FaceDetector:
         upsampling (times ``zoom_factor``): a few milliseconds instead of a whole frame's
         tens, and faces smaller than the whole-frame search finds.
         """
-        x, y, w, h = box
-        size = reach * max(w, h)
-        height, width = image.shape[:2]
-        left, top = int(max(0, x + w / 2 - size)), int(max(0, y + h / 2 - size))
-        right, bottom = int(min(width, x + w / 2 + size)), int(min(height, y + h / 2 + size))
+        rectangle, zoom = near_region(image.shape, box, reach, zoom_factor)
+        return self.detect_region(image, rectangle, zoom)
+
+    def detect_region(self, image: np.ndarray, rectangle: tuple[int, int, int, int], zoom: float) -> list[Detection]:
+        """Faces in the ``rectangle`` (left, top, right, bottom) of ``image`` resized by ``zoom``
+        (not upsampled further), boxes in ``image``'s pixels; none in a rectangle under 8 px."""
+        left, top, right, bottom = rectangle
         if right - left < 8 or bottom - top < 8:
             return []
-        zoom = zoom_factor * DETECTABLE_FACE / max(min(w, h) * 0.9, 1.0)
         crop = image[top:bottom, left:right]
         interpolation = cv2.INTER_LINEAR if zoom > 1.0 else cv2.INTER_AREA
         crop = cv2.resize(crop, None, fx=zoom, fy=zoom, interpolation=interpolation)
@@ -140,6 +141,20 @@ class FaceDetector:
             if best is not None and _overlap(best.box, face) > 0.5:
                 boxes.append(best.box)
         return tuple(float(v) for v in np.median(np.array(boxes), axis=0))
+
+
+def near_region(
+    shape: tuple[int, ...], box: tuple[float, float, float, float], reach: float = 2.0, zoom_factor: float = 1.0
+) -> tuple[tuple[int, int, int, int], float]:
+    """The rectangle (left, top, right, bottom) of an image of ``shape`` within ``reach`` times
+    the face ``box``'s size (x, y, w, h) of its centre, and the zoom at which a face of ``box``'s
+    size is just detectable there without upsampling (times ``zoom_factor``)."""
+    x, y, w, h = box
+    size = reach * max(w, h)
+    height, width = shape[:2]
+    left, top = int(max(0, x + w / 2 - size)), int(max(0, y + h / 2 - size))
+    right, bottom = int(min(width, x + w / 2 + size)), int(min(height, y + h / 2 + size))
+    return (left, top, right, bottom), zoom_factor * DETECTABLE_FACE / max(min(w, h) * 0.9, 1.0)
 
 
 def _overlap(a: tuple[float, ...], b: tuple[float, ...]) -> float:

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from human_tracker.vision.evidence import Cues
-    from human_tracker.vision.target_parameters import TargetParameters
+    from human_tracker.vision.target_parameters import LossParameters
     from human_tracker.vision.tracker import TrackEstimate
 
 __all__ = ['TrackState', 'Event', 'transition', 'weak_frame', 'recovers', 'WAITING', 'TRACKING', 'LOST']
@@ -64,7 +64,7 @@ def transition(state: TrackState, event: Event) -> TrackState:
 
 
 def weak_frame(
-    estimate: TrackEstimate, parameters: TargetParameters, cues: Cues, appearance_known: bool, faceless: bool
+    estimate: TrackEstimate, parameters: LossParameters, cues: Cues, appearance_known: bool, faceless: bool
 ) -> bool:
     """Whether a frame is weak: too few contour points on edges (``lost_confidence``), on moving
     pixels with a motion mask (``lost_motion_support``), or skin inside the contour with skin
@@ -83,7 +83,7 @@ def weak_frame(
 
 
 def recovers(
-    weak_frames: int, steady_frames: int, parameters: TargetParameters, *, region: bool, faces: bool, skin: bool
+    weak_frames: int, steady_frames: int, parameters: LossParameters, *, region: bool, faces: bool, skin: bool
 ) -> bool:
     """Whether a LOST target is TRACKING again by its own evidence. Without a ``region`` cue
     (motion, skin) the edge fit is the only evidence, unless ``faces`` are the proposals (a lost

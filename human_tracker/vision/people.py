@@ -26,24 +26,26 @@ over the same frame's evidence; up to ``max_people`` people are followed. On eac
 Ids: every time a target is taken up (TRACKING after WAITING or LOST, or restarted farther than
 its width from where it was) it gets a new id, never reused while the tracker lives. A LOST
 target reports no id, but its id is held for ``id_hold_frames``: taken up again by its own slot
-within ``HOLD_REACH`` widths of where it was, it gets it back (a hand that passed behind
-someone's head). A consumer that sees the same id on two frames sees the same target. What
-each rule was measured against: docs/decisions/two-people.md and hand2-as-a-person.md.
+(:mod:`~human_tracker.vision.slots`) within ``HOLD_REACH`` widths of where it was, it gets it
+back (a hand that passed behind someone's head). A consumer that sees the same id on two
+frames sees the same target. What each rule was measured against: docs/decisions/two-people.md
+and hand2-as-a-person.md.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from typing import NamedTuple
 
 import numpy as np
 
 from human_tracker.vision.boxes import Box, box_centre, centre_within
 from human_tracker.vision.evidence import Evidence
-from human_tracker.vision.faces import FACE_ON_HEAD
+from human_tracker.vision.face_finder import FaceFinder
+from human_tracker.vision.faces import FACE_ON_HEAD, FaceDetector, face_detector_available
 from human_tracker.vision.lifecycle import LOST
-from human_tracker.vision.target import TargetParameters, TargetResult, TargetTracker, parameters_for
+from human_tracker.vision.outcomes import TargetResult, TrackedTarget, primary_target, targets_line
+from human_tracker.vision.slots import Slot
+from human_tracker.vision.target import TargetParameters, TargetTracker, parameters_for
 from human_tracker.vision.templates import ContourTemplate, make_template
 from human_tracker.vision.tracker import TrackerParameters
 
@@ -59,10 +61,6 @@ TARGETS = (*KINDS, 'person')
 # hands 0.48 -> 0.41).
 SAME_REGION = {'head': 0.5, 'hand': 1.0}
 
-HOLD_REACH = 2.0
-"""How far from where a LOST target was last followed, in its widths (its scale), it may be
-taken up again under its held id."""
-
 MAX_HANDS = 2
 """The most hands a person has."""
 
@@ -75,81 +73,6 @@ def kinds_of(target: str, hands: int = 1) -> tuple[str, ...]:
     if not 0 <= hands <= MAX_HANDS:
         raise ValueError(f'hands must be from 0 to {MAX_HANDS}, got {hands}')
     return ('head',) + ('hand',) * hands if target == 'person' else (target,)
-
-
-class TrackedTarget(NamedTuple):
-    """One target's outcome on a frame.
-
-    Attributes:
-        id: The target's id while it is followed (from 1, never reused); 0 while it is not
-            (WAITING or LOST).
-        kind: ``head`` or ``hand``.
-        person: The person the target belongs to (from 1), its slot's: a hand is taken up
-            only where that person's head is the followed head nearest above it (or no
-            head is followed above it).
-        result: The target tracker's outcome, in the camera's pixels.
-        name: The tracker's slot: ``head``, ``hand``, ``hand_2`` for the first person,
-            ``person_2/head``, ... for the others.
-    """
-
-    id: int
-    kind: str
-    person: int
-    result: TargetResult
-    name: str = ''
-
-
-def primary_target(
-    outcomes: Sequence[TrackedTarget], kind: str, centre: tuple[float, float], chosen_id: int = 0
-) -> TrackedTarget:
-    """The target a consumer of one target follows among a frame's ``outcomes`` (the tracker
-    node's ``pose`` and ``contour``): the target of ``kind`` holding ``chosen_id`` while it is
-    followed; else, of the followed targets of ``kind``, the one whose box centre lies nearest
-    ``centre`` (x, y, camera pixels: the image's centre, where a robot looks at the person it
-    talks to); else the first outcome (the first person's, not followed)."""
-    followed = [o for o in outcomes if o.kind == kind and o.result.tracking]
-    chosen = [o for o in followed if chosen_id and o.id == chosen_id]
-    if chosen:
-        return chosen[0]
-    if not followed:
-        return outcomes[0]
-    return min(followed, key=lambda o: float(np.hypot(*np.subtract(box_centre(o.result.estimate.box), centre))))
-
-
-def targets_line(outcomes: Sequence[TrackedTarget]) -> str:
-    """Every target's name, id (- while it has none) and state: ``head 1 TRACKING, hand - LOST``."""
-    return ', '.join(f'{o.name or o.kind} {o.id or "-"} {o.result.status}' for o in outcomes)
-
-
-@dataclass
-class Slot:
-    """One target's tracker and what is known of it between frames.
-
-    Attributes:
-        name: ``head``, ``hand``, ``hand_2``; ``person_<n>/`` before it from the second person.
-        person: The person it was made for (from 1).
-        kind: ``head`` or ``hand``.
-        hand: Which of the person's hands (1 or 2; 0 for a head).
-        tracker: Its target tracker.
-        id: Its current id (0 while not followed).
-        last_state: Its last estimate's state, camera pixels.
-        box: Its box on the last frame it was followed (camera pixels), None otherwise.
-        held_id: The id it had when it was LOST, while that may come back (0: none).
-        held_state: Its state on the last frame it was followed, camera pixels.
-        held_frames: Frames it has been LOST.
-    """
-
-    name: str
-    person: int
-    kind: str
-    hand: int
-    tracker: TargetTracker
-    id: int = 0
-    last_state: np.ndarray | None = None
-    box: tuple[float, float, float, float] | None = None
-    held_id: int = 0
-    held_state: np.ndarray | None = None
-    held_frames: int = 0
 
 
 @dataclass
@@ -179,6 +102,7 @@ class PersonTracker:
     id_hold_frames: int = 15
     slots: list[Slot] = field(init=False)
     last_id: int = field(default=0, init=False)
+    face_finder: FaceFinder | None = field(default=None, init=False, repr=False)
 
     def __post_init__(self) -> None:
         allowed = [('hand',), *(('head',) + ('hand',) * hands for hands in range(MAX_HANDS + 1))]
@@ -189,6 +113,10 @@ class PersonTracker:
         if self.id_hold_frames < 0:
             raise ValueError(f'id_hold_frames must be >= 0, got {self.id_hold_frames}')
         self.slots = []
+        wanted = [self.parameters.get(kind) or parameters_for(kind) for kind in set(self.kinds)]
+        if any(p.wants_faces for p in wanted) and face_detector_available():
+            # One detector for every target: their searches of a frame run together.
+            self.face_finder = FaceFinder(FaceDetector(), any(p.detector_thread for p in wanted))
         for person in range(1, self.max_people + 1):
             for place, kind in enumerate(self.kinds):
                 hand = self.kinds[: place + 1].count('hand')
@@ -199,6 +127,7 @@ class PersonTracker:
                     self.templates.get(kind) or make_template(kind),
                     replace(self.filter_parameters, seed=seed),
                     self.parameters.get(kind) or parameters_for(kind),
+                    face_finder=self.face_finder,
                 )
                 self.slots.append(Slot(name, person, kind, hand, tracker))
 
@@ -268,7 +197,15 @@ class PersonTracker:
         followed: dict[int, Box] = {}  # where each followed head puts its face
         faced: set[int] = set()  # the people whose followed head a face was found on
         # Heads first: a hand keeps off the faces they find, every person's.
-        for slot in sorted(self.slots, key=lambda o: o.kind != 'head'):
+        order = sorted(self.slots, key=lambda o: o.kind != 'head')
+        if self.face_finder is not None:
+            self.face_finder.new_frame()
+        for place, slot in enumerate(order):
+            if self.face_finder is not None:
+                # A face search waits for those of the targets of its kind after it on this frame
+                # (on the same working image: face_finder).
+                later = [o for o in order[place + 1 :] if o.kind == slot.kind]
+                self.face_finder.hold = any(o.tracker.faces.due(o.tracker.parameters) for o in later)
             if not self._runs(slot):
                 if slot.tracker.filter.initialised:
                     self._clear(slot)  # its turn is over: it starts afresh when it comes again
@@ -277,7 +214,7 @@ class PersonTracker:
             # A hand keeps off the other hands and the forearm below them (one with no hand of
             # its person in view took up the wrist under another's).
             exclude = [
-                _held_region(o) for o in self.slots if o is not slot and o.kind == slot.kind and o.box is not None
+                o.held_region() for o in self.slots if o is not slot and o.kind == slot.kind and o.box is not None
             ]
             if slot.kind == 'head':
                 own = evidence if len(self.kinds) == 1 else evidence.with_cues(skin=None)
@@ -297,25 +234,27 @@ class PersonTracker:
                 found = tracker.step(evidence, face=face, exclude=exclude, avoid=avoid)
                 result = self._identify(slot, found)
             ran.append((slot, result))
+        if self.face_finder is not None:
+            self.face_finder.submit()
         ran = self._keep_apart(sorted(ran, key=lambda run: self.slots.index(run[0])))
         return [TrackedTarget(slot.id, slot.kind, slot.person, result, slot.name) for slot, result in ran]
 
     def _identify(self, slot: Slot, result: TargetResult) -> TargetResult:
         """The slot's id and box after its tracker's ``result`` on this frame; the result, LOST
         for a target the slot may not take up (:meth:`_may_take_up`)."""
-        if result.tracking and self._jumped(slot, result):
+        if result.tracking and slot.jumped(result):
             slot.id = 0  # another target now: the one followed is gone
         if result.tracking and slot.id == 0:
             if not self._may_take_up(slot, result):
                 slot.tracker.mark_lost()
                 result = replace(result, status=LOST)
-            elif _holds(slot, result.estimate.state):
+            elif slot.holds(result.estimate.state):
                 slot.id = slot.held_id
             else:
                 self.last_id += 1
                 slot.id = self.last_id
             if slot.id:
-                self._retire(slot)
+                slot.retire()
         elif not result.tracking and slot.id:
             if self.id_hold_frames and slot.last_state is not None:
                 slot.held_id, slot.held_state, slot.held_frames = slot.id, slot.last_state, 1
@@ -323,7 +262,7 @@ class PersonTracker:
         elif not result.tracking and slot.held_id:
             slot.held_frames += 1
             if slot.held_frames > self.id_hold_frames:
-                self._retire(slot)
+                slot.retire()
         if result.estimate is not None:
             slot.last_state = result.estimate.state
         slot.box = result.estimate.box if result.tracking else None
@@ -335,9 +274,9 @@ class PersonTracker:
         person's waving fingers before the second person came in); a hand only where its own
         person's head is the nearest above it (the walker's slot, whose hands are out of view,
         took the waving hand of the person behind: theirs to take up); neither where another
-        slot of its kind holds an id for a target lost there (:func:`_holds`)."""
+        slot of its kind holds an id for a target lost there (:meth:`~human_tracker.vision.slots.Slot.holds`)."""
         state = result.estimate.state
-        if any(other is not slot and other.kind == slot.kind and _holds(other, state) for other in self.slots):
+        if any(other is not slot and other.kind == slot.kind and other.holds(state) for other in self.slots):
             return False
         if slot.kind == 'head':
             return slot.person == 1 or slot.tracker.detector is None or slot.tracker.has_fresh_face
@@ -356,12 +295,6 @@ class PersonTracker:
         if avoid and face is None and person in faced:
             avoid.append(followed[person])
         return avoid
-
-    @staticmethod
-    def _retire(slot: Slot) -> None:
-        """Forget the id a slot held for its LOST target."""
-        slot.held_id = slot.held_frames = 0
-        slot.held_state = None
 
     def _runs(self, slot: Slot) -> bool:
         """Whether ``slot`` takes its turn on this frame: the first person's head and first hand
@@ -394,15 +327,15 @@ class PersonTracker:
                 and other.box is not None
                 and other.id < slot.id
                 and (
-                    centre_within(box, _held_region(other), share)
-                    or centre_within(other.box, _held_region(slot), share)
+                    centre_within(box, other.held_region(), share)
+                    or centre_within(other.box, slot.held_region(), share)
                 )
                 for other, _ in ran
             )
             if taken:
                 slot.tracker.mark_lost()
                 slot.id, slot.box = 0, None
-                self._retire(slot)
+                slot.retire()
                 result = replace(result, status=LOST)
             kept.append((slot, result))
         return kept
@@ -418,16 +351,7 @@ class PersonTracker:
     def _clear(self, slot: Slot) -> None:
         slot.tracker.reset()
         slot.id, slot.last_state, slot.box = 0, None, None
-        self._retire(slot)
-
-    @staticmethod
-    def _jumped(slot: Slot, result: TargetResult) -> bool:
-        """Whether the filter restarted farther than the target's width (its scale) from its
-        last estimate."""
-        last = slot.last_state
-        if not result.initialised or last is None or result.estimate is None:
-            return False
-        return float(np.hypot(*(result.estimate.state[:2] - last[:2]))) > last[2]
+        slot.retire()
 
     @staticmethod
     def _face_of(head: TargetTracker, result: TargetResult) -> tuple[float, float, float, float] | None:
@@ -435,17 +359,3 @@ class PersonTracker:
         while a face has just been found on it, else None (a head that slid onto the raised arm
         would send the hand to the face): the hand's own detector looks then."""
         return FACE_ON_HEAD.box(result.estimate.state) if result.tracking and head.has_fresh_face else None
-
-
-def _holds(slot: Slot, state: np.ndarray) -> bool:
-    """Whether ``slot`` holds an id for a target lost within ``HOLD_REACH`` widths (its scale
-    then) of ``state`` (x, y, scale, θ; camera pixels)."""
-    held = slot.held_state
-    return held is not None and float(np.hypot(*(state[:2] - held[:2]))) <= HOLD_REACH * held[2]
-
-
-def _held_region(slot: Slot) -> Box:
-    """The region a followed target holds (x, y, w, h, camera pixels): its box, and for a hand its
-    own height below it too, where its wrist and forearm are."""
-    x, y, w, h = slot.box
-    return (x, y, w, 2.0 * h) if slot.kind == 'hand' else slot.box

@@ -10,10 +10,23 @@ poses in the camera's pixels.
 
 from __future__ import annotations
 
+import math
+
 import cv2
 import numpy as np
 
-__all__ = ['same_frame', 'working_scale', 'working_shape', 'to_working']
+__all__ = [
+    'RESOLUTION_MARGIN',
+    'finest_scale',
+    'same_frame',
+    'to_working',
+    'track_width',
+    'working_scale',
+    'working_shape',
+]
+
+RESOLUTION_MARGIN = 1.25
+"""A finer working frame is taken with this margin over the one a small target needs."""
 
 
 def working_scale(width: int, working_width: int) -> float:
@@ -26,6 +39,27 @@ def working_scale(width: int, working_width: int) -> float:
     if working_width <= 0 or width <= working_width:
         return 1.0
     return working_width / width
+
+
+def track_width(frame_width: int, working_width: int, finest: float | None) -> int:
+    """The width a track reduces frames ``frame_width`` pixels wide to (0: none):
+    ``working_width``, or wider when the track needs ``finest`` working pixels per camera pixel
+    or more (:func:`finest_scale`)."""
+    if working_width <= 0 or finest is None or working_scale(frame_width, working_width) >= finest:
+        return working_width
+    needed = math.ceil(finest * frame_width)
+    return 0 if needed >= frame_width else needed
+
+
+def finest_scale(target_width: float, scale: float, min_target_width: float) -> float | None:
+    """The working pixels per camera pixel that keep a target ``target_width`` camera pixels wide
+    at least ``min_target_width`` working pixels across, with :data:`RESOLUTION_MARGIN`, when
+    ``scale`` does not (else None). A track keeps the finer frame until its target is forgotten:
+    going back and forth loses the camera's motion, the detector's run and the colours at each
+    change."""
+    if min_target_width > 0 and target_width > 0 and min_target_width / target_width > scale:
+        return RESOLUTION_MARGIN * min_target_width / target_width
+    return None
 
 
 def working_shape(shape: tuple[int, ...], working_width: int) -> tuple[int, int]:

@@ -21,7 +21,7 @@ from human_tracker.vision.initialisation import blobs, moments_state, state_from
 from human_tracker.vision.morphology import disk
 from human_tracker.vision.particle_filter import gaussian_cloud
 from human_tracker.vision.skin import SKIN
-from human_tracker.vision.target_parameters import TargetParameters
+from human_tracker.vision.target_parameters import StartParameters, TargetParameters
 from human_tracker.vision.templates import ContourTemplate
 from human_tracker.vision.tracker import Appearance, ContourTracker, TrackEstimate, state_from_box
 
@@ -65,7 +65,7 @@ class Hypothesis(NamedTuple):
 
 
 def initial_region(
-    motion: np.ndarray | None, skin: np.ndarray | None, parameters: TargetParameters, cleared_boxes: Sequence[Box] = ()
+    motion: np.ndarray | None, skin: np.ndarray | None, parameters: StartParameters, cleared_boxes: Sequence[Box] = ()
 ) -> np.ndarray | None:
     """The mask X_0 is computed from (``init_region``; the other cue when that one is missing),
     or None without either; zero on ``cleared_boxes`` (x, y, w, h: other targets', faces kept off)."""
@@ -81,7 +81,7 @@ def initial_region(
 
 
 def initial_states(
-    region: np.ndarray, template: ContourTemplate, parameters: TargetParameters, started: bool
+    region: np.ndarray, template: ContourTemplate, parameters: StartParameters, started: bool
 ) -> list[np.ndarray]:
     """Candidate X_0 from a region mask (§2.5), ``parameters`` scaled to its resolution; empty
     if there is no usable region. ``started``: the filter has been started before
@@ -105,7 +105,7 @@ def best_hypothesis(
     filter: ContourTracker,
     starts: Sequence[np.ndarray],
     edges: np.ndarray,
-    parameters: TargetParameters,
+    parameters: StartParameters,
     motion: np.ndarray | None = None,
     skin: np.ndarray | None = None,
     appearance: Appearance | None = None,

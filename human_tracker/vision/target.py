@@ -22,22 +22,20 @@ Per frame (:meth:`TargetTracker.step`), in five stages:
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
-from functools import partial
+from dataclasses import dataclass, replace
 from typing import NamedTuple
 
 import numpy as np
 
-from human_tracker.vision.anchoring import FRESH_FACE_FRAMES, BoxAnchor, face_and_neck, face_on, restart_on_face
+from human_tracker.vision.anchoring import face_and_neck, face_on, restart_on_face
 from human_tracker.vision.appearance import AppearanceModel
 from human_tracker.vision.boxes import Box, BoxRelation, centre_within
-from human_tracker.vision.camera_motion import CameraShake
-from human_tracker.vision.evidence import Cues, Evidence, FrameSettings, WorkingFrame, working_cues
-from human_tracker.vision.face_schedule import SEARCH_AFTER_MISSES, FaceSchedule, carry_faces
-from human_tracker.vision.faces import FACE_ON_HEAD, Detection, FaceDetector
-from human_tracker.vision.lifecycle import LOST, TRACKING, WAITING, Event, TrackState, recovers, transition, weak_frame
+from human_tracker.vision.evidence import Cues, Evidence, WorkingFrame, working_cues
+from human_tracker.vision.face_schedule import SEARCH_AFTER_MISSES, carry_faces
+from human_tracker.vision.faces import FACE_ON_HEAD, Detection
+from human_tracker.vision.lifecycle import LOST, TRACKING, Event, recovers, transition, weak_frame
+from human_tracker.vision.outcomes import TargetResult
 from human_tracker.vision.resolution import working_scale
 from human_tracker.vision.starts import (
     Hypothesis,
@@ -50,48 +48,20 @@ from human_tracker.vision.starts import (
     should_start,
 )
 from human_tracker.vision.target_parameters import TargetParameters, parameters_for
-from human_tracker.vision.templates import ContourTemplate
-from human_tracker.vision.tracker import Appearance, ContourTracker, TrackerParameters, TrackEstimate, state_from_box
+from human_tracker.vision.track import Track
+from human_tracker.vision.tracker import Appearance, TrackEstimate
 
 __all__ = [
     'FACELESS_FRAMES',
-    'RESOLUTION_MARGIN',
     'TargetParameters',
     'TargetResult',
     'TargetTracker',
     'parameters_for',
 ]
 
-RESOLUTION_MARGIN = 1.25
-"""A finer working frame is taken with this margin over the one a small target needs."""
 FACELESS_FRAMES = 30
 """Frames without its face after which a head whose face was seen is weak when no motion mask
 can say where the person is (counted in frames: detector runs thin out when none is found)."""
-
-
-@dataclass
-class TargetResult:
-    """One frame's outcome.
-
-    Attributes:
-        status: WAITING (never had a target), TRACKING, or LOST.
-        estimate: The filter's estimate (camera pixels), None while WAITING.
-        initialised: Whether the filter was (re)initialised on this frame.
-        motion_set_aside: Whether the frame's motion mask covered more than
-            ``max_motion_fraction`` of it and was not used.
-        detections: The detector's boxes (x, y, w, h, camera pixels) on this frame.
-    """
-
-    status: TrackState
-    estimate: TrackEstimate | None
-    initialised: bool = False
-    motion_set_aside: bool = False
-    detections: tuple[tuple[float, float, float, float], ...] = ()
-
-    @property
-    def tracking(self) -> bool:
-        """Whether a pose should be published for this frame."""
-        return self.status == TRACKING and self.estimate is not None
 
 
 class _Proposals(NamedTuple):
@@ -105,113 +75,9 @@ class _Proposals(NamedTuple):
 
 
 @dataclass
-class TargetTracker:
-    """The contour particle filter plus cues, (re)starts and loss tests for one target.
-
-    Frames, boxes, estimates and parameters are in the camera's pixels; the filter itself
-    (``filter``) works at the working resolution, ``scale`` working pixels per camera pixel.
-    """
-
-    template: ContourTemplate
-    filter_parameters: TrackerParameters = field(default_factory=TrackerParameters)
-    parameters: TargetParameters = field(default_factory=TargetParameters)
-    status: TrackState = WAITING
-    weak_frames: int = 0
-    steady_frames: int = 0
-    filter: ContourTracker = field(init=False)
-    scale: float = field(default=1.0, init=False)
-    # The least working pixels per camera pixel this track needs (``min_target_width``), or None.
-    finest_scale: float | None = field(default=None, init=False)
-    appearance: AppearanceModel | None = field(default=None, init=False)
-    anchor: BoxAnchor = field(default_factory=BoxAnchor, init=False)
-    faces: FaceSchedule = field(init=False)
-    frames_without_own_face: int = field(default=0, init=False)
-    camera: CameraShake = field(default_factory=CameraShake, init=False)
-    # The state reported on the last frame (working pixels): with ``detector_thread``, the
-    # contour on the frame the faces delivered on this one were found on.
-    reported_state: np.ndarray | None = field(default=None, init=False, repr=False)
-    start_box: Box | None = field(default=None, init=False)
-    started_from_box: bool = field(default=False, init=False)
-
-    def __post_init__(self) -> None:
-        self.parameters.validate()
-        self.filter = ContourTracker(self.template, self.filter_parameters)
-        self.faces = FaceSchedule.for_target(self.parameters)
-
-    @property
-    def detector(self) -> FaceDetector | None:
-        """The face detector, None when the target wants none or dlib is missing."""
-        return self.faces.detector
-
-    @property
-    def has_fresh_face(self) -> bool:
-        """Whether a head's own face was found on it within ``FRESH_FACE_FRAMES`` frames."""
-        return self._fresh_face() is not None
-
-    @property
-    def proposals_problem(self) -> str | None:
-        """Why the face detector asked for is off (dlib missing), or None."""
-        if self.parameters.wants_faces and self.detector is None:
-            wanted = 'proposals: faces' if self.parameters.proposals == 'faces' else 'avoid_faces'
-            return f'{wanted} needs dlib (pip install dlib-bin, or apt install python3-dlib); running without'
-        return None
-
-    def _to_camera(self) -> np.ndarray:
-        """Per-component factors taking a state [x, y, s, θ] from working to camera pixels."""
-        return np.array([1.0 / self.scale, 1.0 / self.scale, 1.0 / self.scale, 1.0])
-
-    def set_filter_parameters(self, parameters: TrackerParameters) -> None:
-        """Change the filter's constants (camera pixels) while it runs."""
-        self.filter_parameters = parameters
-        self.filter.parameters = parameters.scaled(self.scale)
-
-    @property
-    def particles(self) -> np.ndarray | None:
-        """``(P, 4)`` particle cloud in camera pixels, or None before initialisation."""
-        return None if self.filter.particles is None else self.filter.particles * self._to_camera()
-
-    @property
-    def previous_particles(self) -> np.ndarray | None:
-        """``(P, 4)`` each particle's state on the frame before (the AR(2) state's x_{k-1}),
-        camera pixels, or None before initialisation."""
-        return None if self.filter.previous is None else self.filter.previous * self._to_camera()
-
-    def initialise_from_box(self, box: Box) -> None:
-        """Start on a known box (x, y, w, h), camera pixels (benchmark protocol, an operator, a detector).
-
-        The box fills the template's reference region, and every later box is reported the way
-        this one sits on the contour (:mod:`~human_tracker.vision.boxes`): a face box stays a
-        face box. With the fused likelihood the contour settles on the silhouette around the box
-        on the next frame (:func:`~human_tracker.vision.starts.settle_on_box`), and the box's
-        colours are the target's appearance.
-        """
-        state = state_from_box(box, self.template)
-        self.filter.initialise(state / self._to_camera())
-        self.finest_scale = None
-        self._fit_resolution(float(state[2]), 0.0)  # before the frame's size is known
-        self.anchor = BoxAnchor(BoxRelation.of(box, state))  # until the contour settles on the next frame
-        self.frames_without_own_face = 0
-        self.start_box = tuple(float(v) for v in box)  # type: ignore[assignment]
-        self.started_from_box = True
-        self.faces.drop_pending()  # its faces belong to the frame before the box
-        self.appearance = None
-        self.status = transition(self.status, Event.START)
-        self.weak_frames = 0
-
-    def mark_lost(self) -> None:
-        """Declare the target lost (the next hypothesis may restart the filter)."""
-        self.status = transition(self.status, Event.MARK_LOST)
-
-    def reset(self) -> None:
-        """Forget the target; wait for motion or a box."""
-        self.filter.reset()
-        self.status = transition(self.status, Event.RESET)
-        self.weak_frames = self.steady_frames = self.frames_without_own_face = 0
-        self.appearance = self.reported_state = self.start_box = self.finest_scale = None
-        self.anchor = BoxAnchor()
-        self.faces.reset()
-        self.camera = CameraShake()
-        self.started_from_box = False
+class TargetTracker(Track):
+    """The contour particle filter plus cues, (re)starts and loss tests for one target: one
+    frame's :meth:`step` on its :class:`~human_tracker.vision.track.Track`."""
 
     def process(
         self,
@@ -244,6 +110,8 @@ class TargetTracker:
         Returns:
             The outcome, its estimate in the camera's pixels.
         """
+        if self.face_finder is None and self.faces.finder is not None:
+            self.faces.finder.new_frame()  # its own detector: a frame is one step
         # 1. Observe.
         frame, cues = self._observe(evidence)
         p = self.parameters.scaled(self.scale)
@@ -285,14 +153,6 @@ class TargetTracker:
             estimate, face_found, proposals, cues, frame.bins, appearance, given_box, initialised, avoided
         )
         return TargetResult(self.status, estimate, initialised, cues.motion_set_aside, shown)
-
-    def frame_settings(self, frame_width: int) -> FrameSettings:
-        """What this track's working frame of a frame ``frame_width`` pixels wide depends on."""
-        width = self.working_width(frame_width)
-        p = self.parameters.scaled(working_scale(frame_width, width))
-        return FrameSettings(
-            width, p.colour_edges, p.likelihood == 'fused', p.edge_blur_sigma, p.canny_low, p.canny_high
-        )
 
     def hypothesis(
         self,
@@ -533,11 +393,6 @@ class TargetTracker:
             lost_appearance_distance=self.parameters.lost_appearance_distance,
         )
 
-    def _fresh_face(self) -> Box | None:
-        """The head's own face when it was found within ``FRESH_FACE_FRAMES`` frames, else None."""
-        fresh = self.frames_without_own_face <= FRESH_FACE_FRAMES
-        return self.faces.last_face if fresh else None
-
     def _skin_draws(self) -> dict[str, object]:
         """How skin regions draw particles, unlike faces: a region's moments are as coarse as X_0
         (spread as a hypothesis's cloud), and a region is not a hand, so none restarts the filter:
@@ -546,51 +401,3 @@ class TargetTracker:
             return {}
         spread = 2.0 * np.asarray(self.filter.parameters.initial_spread)
         return {'detection_spread': spread, 'restart_share': 0.0, 'detection_floor': 1.0}
-
-    def _own_region(self) -> BoxRelation:
-        """The region whose colours are the target's after a start by itself: the template's
-        reference region (the head's or the hand's box)."""
-        return BoxRelation.of(self.template.reference_box, np.array([0.0, 0.0, 1.0, 0.0]))
-
-    def _appearance_term(self, bins: np.ndarray | None) -> Appearance | None:
-        """D² of states on this frame's colour ``bins``, once the target's appearance is known."""
-        if bins is None or self.appearance is None:
-            return None
-        return partial(self.appearance.squared_distances, bins)
-
-    def working_width(self, frame_width: int) -> int:
-        """The width frames ``frame_width`` pixels wide are reduced to for this track (0: none):
-        ``working_width``, or wider for a target narrower than ``min_target_width`` there."""
-        width = self.parameters.working_width
-        if width <= 0 or self.finest_scale is None or working_scale(frame_width, width) >= self.finest_scale:
-            return width
-        needed = math.ceil(self.finest_scale * frame_width)
-        return 0 if needed >= frame_width else needed
-
-    def _fit_resolution(self, target_width: float, scale: float) -> None:
-        """Keep a target ``target_width`` camera pixels wide at least ``min_target_width`` working
-        pixels across from the next frame on, by a working frame finer than ``scale``, with
-        ``RESOLUTION_MARGIN``. The frame stays that fine until the target is forgotten: going
-        back and forth loses the camera's motion, the detector's run and the colours at each change."""
-        least = self.parameters.min_target_width
-        if least > 0 and target_width > 0 and least / target_width > scale:
-            self.finest_scale = RESOLUTION_MARGIN * least / target_width
-
-    def _rescale(self, scale: float) -> None:
-        """Work at ``scale`` working pixels per camera pixel (first frame, a new frame size, or a
-        target that needs a finer frame)."""
-        if scale == self.scale:
-            return
-        ratio = scale / self.scale
-        factors = np.array([ratio, ratio, ratio, 1.0])  # a state [x, y, s, θ] at the new scale
-        if self.filter.particles is not None and self.filter.previous is not None:
-            self.filter.particles = self.filter.particles * factors
-            self.filter.previous = self.filter.previous * factors
-        if self.camera.previous is not None:
-            # No camera motion or face localisation across frames of two sizes.
-            self.faces.rescale(ratio)
-            if self.reported_state is not None:
-                self.reported_state = self.reported_state * factors
-            self.camera.previous = None
-        self.scale = scale
-        self.filter.parameters = self.filter_parameters.scaled(scale)

@@ -1,7 +1,11 @@
-"""The constants of one target's tracking: how the cues combine, how it starts, when it is lost.
+"""The constants of one target's tracking, by concern: how the cues combine, where faces come
+in, the camera's motion, how a track starts, when it is lost, and the working frame.
 
-Lengths and areas are in the camera's pixels; :meth:`TargetParameters.scaled` gives them on a
-reduced working frame. :func:`parameters_for` gives each built-in target's defaults.
+Each concern is a small frozen dataclass that the code of that concern takes;
+:class:`TargetParameters` is all of them, with the flat names a user sets (a YAML file, a ROS
+parameter, ``--set``). Lengths and areas are in the camera's pixels; :meth:`TargetParameters.scaled`
+gives them on a reduced working frame. :func:`parameters_for` gives each built-in target's
+defaults.
 """
 
 from __future__ import annotations
@@ -10,6 +14,12 @@ from dataclasses import dataclass, replace
 
 __all__ = [
     'COLOUR_MODES',
+    'CameraParameters',
+    'CueParameters',
+    'FaceParameters',
+    'FrameParameters',
+    'LossParameters',
+    'StartParameters',
     'INIT_METHODS',
     'INIT_REGIONS',
     'LIKELIHOODS',
@@ -27,9 +37,25 @@ LIKELIHOODS = ('fused', 'paper')
 PROPOSALS = ('faces', 'skin', 'off')
 
 
+def _choose(parameters: object, **allowed: tuple[str, ...]) -> None:
+    for name, choices in allowed.items():
+        if getattr(parameters, name) not in choices:
+            raise ValueError(f'{name} must be one of {", ".join(choices)}, got {getattr(parameters, name)!r}')
+
+
+def _within(parameters: object, **checks: tuple[bool, str]) -> None:
+    for name, (ok, allowed) in checks.items():
+        if not ok:
+            raise ValueError(f'{name} must be {allowed}, got {getattr(parameters, name)}')
+
+
+def _shares(parameters: object, *names: str) -> dict[str, tuple[bool, str]]:
+    return {name: (0.0 <= getattr(parameters, name) <= 1.0, 'in [0, 1]') for name in names}
+
+
 @dataclass(frozen=True)
-class TargetParameters:
-    """How cues are combined and when the target counts as lost.
+class CueParameters:
+    """How the cues enter the likelihood (eqs. 2-4, §3.2, the appearance term).
 
     Attributes:
         likelihood: ``fused`` (the shape likelihood of eqs. 1-4 times the colour appearance
@@ -37,13 +63,49 @@ class TargetParameters:
         appearance_parts: Horizontal bands of the target's region with their own histogram.
         adaptation_rate: How fast the appearance reference follows the target, per frame
             that is not weak (0 keeps the first frame's).
-        lost_appearance_distance: Bhattacharyya distance of the region from its reference
-            above which a frame is weak, and above which a hypothesis does not start the
-            filter once the target's appearance is known.
+        motion_mode: ``off`` (eqs. 1-2), ``weighted`` (eqs. 3-4) or ``mask`` (edges on moving
+            pixels only).
+        max_motion_fraction: A motion mask covering more of the frame than this isolates
+            nothing (the camera moved, the light changed): the frame is then tracked on its
+            edges alone (eq. 2) and gives no hypothesis. 1 keeps every mask.
+        colour_mode: ``off``, ``weighted`` (the colour term of §3.2 in the likelihood) or
+            ``mask`` (edges only within ``skin_margin`` of skin: skin regions delimit the fit).
+        skin_margin: Dilation, pixels, of the skin regions in the ``mask`` colour mode.
+    """
+
+    likelihood: str = 'fused'
+    appearance_parts: int = 2
+    adaptation_rate: float = 0.02
+    motion_mode: str = 'weighted'
+    max_motion_fraction: float = 0.5
+    colour_mode: str = 'weighted'
+    skin_margin: int = 4
+
+    def validate(self) -> None:
+        """Raise ValueError naming the first parameter out of its range."""
+        _choose(self, likelihood=LIKELIHOODS, motion_mode=MOTION_MODES, colour_mode=COLOUR_MODES)
+        _within(
+            self,
+            appearance_parts=(self.appearance_parts >= 1, '>= 1'),
+            max_motion_fraction=(0.0 < self.max_motion_fraction <= 1.0, 'in (0, 1]'),
+            skin_margin=(self.skin_margin >= 0, '>= 0'),
+            adaptation_rate=(0.0 <= self.adaptation_rate <= 1.0, 'in [0, 1]'),
+        )
+
+
+@dataclass(frozen=True)
+class FaceParameters:
+    """Where faces come in: proposals, faces to keep off, and when the detector runs.
+
+    Attributes:
         proposals: ``faces`` (face detections draw particles and start or restart the
             track, :mod:`~human_tracker.vision.proposals`; needs dlib), ``skin`` (the
             moments of the skin regions that hypotheses come from draw particles, spread as
             widely as a hypothesis's cloud: for a hand) or ``off``.
+        avoid_faces: For a hand: faces the detector finds (every ``detect_every`` frames,
+            around the last one found) are not the target. A contour on the face found last
+            is a weak frame, and the face is cut from the skin regions that hypotheses come
+            from. Needs dlib.
         detect_every: Run the detector on every this many frames (around the predicted face
             while tracking, on the whole working frame while searching).
         patient_every: Once :data:`~human_tracker.vision.face_schedule.PATIENT_SEARCHES` runs
@@ -60,10 +122,40 @@ class TargetParameters:
             itself: faces a frame late are carried by the filter's predicted motion, which a
             person turning back outruns when frames are far apart (docs/decisions/slow-camera.md).
             Frames without stamps never wait.
-        avoid_faces: For a hand: faces the detector finds (every ``detect_every`` frames,
-            around the last one found) are not the target. A contour on the face found last
-            is a weak frame, and the face is cut from the skin regions that hypotheses come
-            from. Needs dlib.
+    """
+
+    proposals: str = 'faces'
+    avoid_faces: bool = False
+    detect_every: int = 1
+    patient_every: int = 8
+    face_search_reach: float = 2.0
+    detector_thread: bool = True
+    detector_wait_interval: float = 0.05
+
+    @property
+    def wants_faces(self) -> bool:
+        """Whether the track runs a face detector: faces as proposals, or faces to avoid."""
+        return self.proposals == 'faces' or self.avoid_faces
+
+    def validate(self) -> None:
+        """Raise ValueError naming the first parameter out of its range."""
+        _choose(self, proposals=PROPOSALS)
+        if self.avoid_faces and self.proposals == 'faces':
+            raise ValueError('avoid_faces is for a hand: with proposals: faces, faces are the target')
+        _within(
+            self,
+            detect_every=(self.detect_every >= 1, '>= 1'),
+            patient_every=(self.patient_every >= 1, '>= 1'),
+            face_search_reach=(self.face_search_reach > 0.0, '> 0'),
+            detector_wait_interval=(self.detector_wait_interval >= 0.0, '>= 0 (s)'),
+        )
+
+
+@dataclass(frozen=True)
+class CameraParameters:
+    """Following the camera's own motion.
+
+    Attributes:
         compensate_camera: Carry the particles with the camera's own image motion between
             frames (:mod:`~human_tracker.vision.camera_motion`) before each prediction, so the
             AR(2) velocity is the target's own: the motion the background stage measured
@@ -76,14 +168,22 @@ class TargetParameters:
             frame, in [0, 1). That mean (a pan following the person) is left to the AR(2)
             velocity, and only the rest (shake) carries the particles; 0 carries them with the
             whole motion.
-        motion_mode: ``off`` (eqs. 1-2), ``weighted`` (eqs. 3-4) or ``mask`` (edges on moving
-            pixels only).
-        max_motion_fraction: A motion mask covering more of the frame than this isolates
-            nothing (the camera moved, the light changed): the frame is then tracked on its
-            edges alone (eq. 2) and gives no hypothesis. 1 keeps every mask.
-        colour_mode: ``off``, ``weighted`` (the colour term of §3.2 in the likelihood) or
-            ``mask`` (edges only within ``skin_margin`` of skin: skin regions delimit the fit).
-        skin_margin: Dilation, pixels, of the skin regions in the ``mask`` colour mode.
+    """
+
+    compensate_camera: bool = True
+    estimate_camera_motion: bool = False
+    pan_smoothing: float = 0.5
+
+    def validate(self) -> None:
+        """Raise ValueError naming the first parameter out of its range."""
+        _within(self, pan_smoothing=(0.0 <= self.pan_smoothing < 1.0, 'in [0, 1)'))
+
+
+@dataclass(frozen=True)
+class StartParameters:
+    """How a track starts, restarts and switches: the region X_0 comes from (§2.5) and the hypotheses around it.
+
+    Attributes:
         init_region: Where X_0 comes from: ``motion`` (the moving region) or ``skin`` (skin
             regions); when that cue is missing on a frame, the other one.
         init_method: ``scan`` (§2.5.2, head from the top of the moving region) or ``moments``
@@ -97,26 +197,77 @@ class TargetParameters:
         region_closing: Radius (pixels) of the closing that joins a moving silhouette's parts
             before the region is measured (§2.5); 0 disables it.
         init_confidence: Score a motion hypothesis needs to start the filter, in [0, 1].
+        init_motion_support: With a motion mask, the fraction of a hypothesis's contour
+            points on it that the hypothesis needs to start the filter.
         switch_margin: How much better than the current estimate a hypothesis elsewhere must
             score to restart the filter there (never while the edges and colours of a target
             started from a box hold, with the fused likelihood).
         hypothesis_samples: States drawn around X_0 (twice ``initial_spread``) to score it.
         hypothesis_blobs: With ``moments``, how many of the largest regions each give an X_0
             (the best-fitting one wins: the hand among the skin-coloured regions).
+    """
+
+    init_region: str = 'motion'
+    init_method: str = 'scan'
+    upper_end_restarts: bool = False
+    upright_angle: float = 0.0
+    min_blob_area: int = 1000
+    region_closing: int = 4
+    init_confidence: float = 0.45
+    init_motion_support: float = 0.0
+    switch_margin: float = 0.2
+    hypothesis_samples: int = 128
+    hypothesis_blobs: int = 1
+
+    def validate(self) -> None:
+        """Raise ValueError naming the first parameter out of its range."""
+        _choose(self, init_method=INIT_METHODS, init_region=INIT_REGIONS)
+        _within(
+            self,
+            min_blob_area=(self.min_blob_area >= 1, '>= 1'),
+            hypothesis_samples=(self.hypothesis_samples >= 1, '>= 1'),
+            hypothesis_blobs=(self.hypothesis_blobs >= 1, '>= 1'),
+            **_shares(self, 'init_confidence', 'switch_margin', 'init_motion_support'),
+        )
+
+
+@dataclass(frozen=True)
+class LossParameters:
+    """When a frame is weak and a target LOST (:mod:`~human_tracker.vision.lifecycle`).
+
+    Attributes:
         lost_confidence: Fraction of contour points finding an edge below which a frame is weak.
         lost_motion_support: Fraction of contour points on the motion mask below which a
             frame with a mask is weak; 0 disables the test (use it with the foreground cue).
         lost_skin_support: Share of the contour's interior on skin below which a frame with
             skin labels is weak (a hand that left the view leaves the contour on the room);
             0 disables the test.
-        init_motion_support: With a motion mask, the fraction of a hypothesis's contour
-            points on it that the hypothesis needs to start the filter.
+        lost_appearance_distance: Bhattacharyya distance of the region from its reference
+            above which a frame is weak, and above which a hypothesis does not start the
+            filter once the target's appearance is known.
         lost_frames: Consecutive weak frames after which the target is lost.
-        colour_edges: Detect edges on the colour image (strongest channel per pixel) when
-            the frame has colour, not on its intensity.
-        edge_blur_sigma: Gaussian pre-filter of the edge detector, pixels.
-        canny_low: Canny low threshold.
-        canny_high: Canny high threshold.
+    """
+
+    lost_confidence: float = 0.3
+    lost_motion_support: float = 0.0
+    lost_skin_support: float = 0.0
+    lost_appearance_distance: float = 0.5
+    lost_frames: int = 5
+
+    def validate(self) -> None:
+        """Raise ValueError naming the first parameter out of its range."""
+        _within(
+            self,
+            lost_frames=(self.lost_frames >= 1, '>= 1'),
+            **_shares(self, 'lost_appearance_distance', 'lost_confidence', 'lost_motion_support', 'lost_skin_support'),
+        )
+
+
+@dataclass(frozen=True)
+class FrameParameters:
+    """The working frame and its edges (:mod:`~human_tracker.vision.resolution`, :mod:`~human_tracker.vision.edges`).
+
+    Attributes:
         working_width: Frames wider than this many pixels are reduced to it before the
             edges are found and the contour fitted (:mod:`~human_tracker.vision.resolution`);
             0 works at full size. Every length above and in the filter's parameters stays
@@ -125,100 +276,48 @@ class TargetParameters:
             s): a smaller start box, or a target held smaller for ``lost_frames``, makes the
             tracker reduce the frame less for that track, down to not at all
             (docs/decisions/small-targets-in-wide-frames.md). 0: ``working_width`` alone decides.
+        colour_edges: Detect edges on the colour image (strongest channel per pixel) when
+            the frame has colour, not on its intensity.
+        edge_blur_sigma: Gaussian pre-filter of the edge detector, pixels.
+        canny_low: Canny low threshold.
+        canny_high: Canny high threshold.
     """
 
-    likelihood: str = 'fused'
-    appearance_parts: int = 2
-    adaptation_rate: float = 0.02
-    lost_appearance_distance: float = 0.5
-    proposals: str = 'faces'
-    detect_every: int = 1
-    patient_every: int = 8
-    face_search_reach: float = 2.0
-    detector_thread: bool = True
-    detector_wait_interval: float = 0.05
-    avoid_faces: bool = False
-    compensate_camera: bool = True
-    estimate_camera_motion: bool = False
-    pan_smoothing: float = 0.5
-    motion_mode: str = 'weighted'
-    max_motion_fraction: float = 0.5
-    colour_mode: str = 'weighted'
-    skin_margin: int = 4
-    init_region: str = 'motion'
-    init_method: str = 'scan'
-    upper_end_restarts: bool = False
-    upright_angle: float = 0.0
-    min_blob_area: int = 1000
-    region_closing: int = 4
-    init_confidence: float = 0.45
-    switch_margin: float = 0.2
-    hypothesis_samples: int = 128
-    hypothesis_blobs: int = 1
-    lost_confidence: float = 0.3
-    lost_motion_support: float = 0.0
-    lost_skin_support: float = 0.0
-    init_motion_support: float = 0.0
-    lost_frames: int = 5
+    working_width: int = 320
+    min_target_width: float = 20.0
     colour_edges: bool = False
     edge_blur_sigma: float = 1.5
     canny_low: float = 40.0
     canny_high: float = 100.0
-    working_width: int = 320
-    min_target_width: float = 20.0
-
-    @property
-    def wants_faces(self) -> bool:
-        """Whether the track runs a face detector: faces as proposals, or faces to avoid."""
-        return self.proposals == 'faces' or self.avoid_faces
 
     def validate(self) -> None:
         """Raise ValueError naming the first parameter out of its range."""
-        choices = {
-            'likelihood': LIKELIHOODS,
-            'proposals': PROPOSALS,
-            'motion_mode': MOTION_MODES,
-            'colour_mode': COLOUR_MODES,
-            'init_method': INIT_METHODS,
-            'init_region': INIT_REGIONS,
-        }
-        for name, allowed in choices.items():
-            if getattr(self, name) not in allowed:
-                raise ValueError(f'{name} must be one of {", ".join(allowed)}, got {getattr(self, name)!r}')
-        if self.avoid_faces and self.proposals == 'faces':
-            raise ValueError('avoid_faces is for a hand: with proposals: faces, faces are the target')
-        ranges = [
-            ('detect_every', self.detect_every >= 1, '>= 1'),
-            ('patient_every', self.patient_every >= 1, '>= 1'),
-            ('face_search_reach', self.face_search_reach > 0.0, '> 0'),
-            ('detector_wait_interval', self.detector_wait_interval >= 0.0, '>= 0 (s)'),
-            ('appearance_parts', self.appearance_parts >= 1, '>= 1'),
-            ('pan_smoothing', 0.0 <= self.pan_smoothing < 1.0, 'in [0, 1)'),
-            ('max_motion_fraction', 0.0 < self.max_motion_fraction <= 1.0, 'in (0, 1]'),
-            ('skin_margin', self.skin_margin >= 0, '>= 0'),
-            ('min_blob_area', self.min_blob_area >= 1, '>= 1'),
-            ('hypothesis_samples', self.hypothesis_samples >= 1, '>= 1'),
-            ('hypothesis_blobs', self.hypothesis_blobs >= 1, '>= 1'),
-            ('lost_frames', self.lost_frames >= 1, '>= 1'),
-            ('working_width', self.working_width >= 0, '>= 0 (0: full size)'),
-            ('min_target_width', self.min_target_width >= 0, '>= 0'),
-        ]
-        shares = (
-            'adaptation_rate',
-            'lost_appearance_distance',
-            'init_confidence',
-            'switch_margin',
-            'lost_confidence',
-            'lost_motion_support',
-            'lost_skin_support',
-            'init_motion_support',
+        _within(
+            self,
+            working_width=(self.working_width >= 0, '>= 0 (0: full size)'),
+            min_target_width=(self.min_target_width >= 0, '>= 0'),
         )
-        ranges += [(name, 0.0 <= getattr(self, name) <= 1.0, 'in [0, 1]') for name in shares]
-        for name, ok, allowed in ranges:
-            if not ok:
-                raise ValueError(f'{name} must be {allowed}, got {getattr(self, name)}')
         if self.canny_low < 0 or self.canny_high < self.canny_low:
             raise ValueError(f'need 0 <= canny_low <= canny_high, got {self.canny_low}, {self.canny_high}')
+
+
+@dataclass(frozen=True)
+class TargetParameters(
+    FrameParameters, LossParameters, StartParameters, CameraParameters, FaceParameters, CueParameters
+):
+    """Every constant of one target's tracking (each concern's, above), under flat names."""
+
+    def validate(self) -> None:
+        """Raise ValueError naming the first parameter out of its range."""
+        for concern in (
+            CueParameters,
+            FaceParameters,
+            CameraParameters,
+            StartParameters,
+            LossParameters,
+            FrameParameters,
+        ):
+            concern.validate(self)
 
     def scaled(self, factor: float) -> TargetParameters:
         """The same parameters on images resized by ``factor``: lengths and areas in pixels scaled."""

@@ -178,6 +178,7 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
     motion_set_aside = 0
     # By target slot (``head``, ``hand``, ``person_2/head``, ...): None or 0 where it did not run.
     predicted: dict[str, list[Box | None]] = {name: [] for name in names}
+    estimated: dict[str, list[Box | None]] = {name: [] for name in names}  # the filter's, any state
     ids: dict[str, list[int]] = {name: [] for name in names}
     truth: list[Box | None] = []
     tracks: dict[str, list[Box | None]] = {}  # several ground-truth tracks, by name
@@ -203,6 +204,7 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
                 rejected[frame.rejected] = rejected.get(frame.rejected, 0) + 1
                 for name in names:
                     predicted[name].append(None)
+                    estimated[name].append(None)
                     ids[name].append(0)
                 table.writerow([frame.index, frame.stamp_ns, *[''] * 5, 'REJECTED', *[''] * _AFTER_STATUS])
                 continue
@@ -227,6 +229,8 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
                 outcome = ran.get(name)
                 followed = outcome is not None and outcome.result.tracking
                 predicted[name].append(outcome.result.estimate.box if followed else None)
+                estimate = None if outcome is None else outcome.result.estimate
+                estimated[name].append(None if estimate is None else estimate.box)
                 ids[name].append(outcome.id if outcome is not None else 0)
             for outcome in outcomes:
                 table.writerow(_pose_row(frame.index, frame.stamp_ns, outcome))
@@ -271,7 +275,7 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
         summary['targets'] = {name: _id_summary(ids[name]) for name in names}
         summary['scored_kind'] = scored
     if any(t is not None for t in truth):
-        summary.update(summarise(predicted[scored], truth))
+        summary.update(summarise(predicted[scored], truth, estimated[scored]))
         summary.update(identity_scores({'truth': truth}, one_track(ids[scored], predicted[scored])))
     if len(tracks) > 1:
         summary.update(_several_tracks(tracks, predicted, ids, kind_of))

@@ -59,3 +59,15 @@ def test_skin_scores_by_hand() -> None:
         'regions_found': 1,
     }
     np.testing.assert_array_equal(box_mask((3, 3), [[1, 0, 2, 1]]), [[0, 1, 1], [0, 1, 1], [0, 0, 0]])
+
+
+def test_falsely_lost_counts_unreported_frames_whose_estimate_is_on_the_target() -> None:
+    """Four annotated frames (target 20 px wide at centre (50, 50)) and one not annotated:
+    reported; not reported with the estimate 15 px off (falsely lost); not reported 25 px off
+    (truly lost); not reported and no estimate (WAITING). 1 of 4."""
+    truth = [(40.0, 40.0, 20.0, 20.0)] * 4 + [None]
+    on, near, far = (40.0, 40.0, 20.0, 20.0), (55.0, 40.0, 20.0, 20.0), (65.0, 40.0, 20.0, 20.0)
+    predicted = [on, None, None, None, None]
+    estimated = [on, near, far, None, near]
+    assert summarise(predicted, truth, estimated)['falsely_lost'] == 0.25
+    assert 'falsely_lost' not in summarise(predicted, truth)  # a tracker with no estimate when it says lost

@@ -244,19 +244,25 @@ def test_a_target_taken_up_again_near_where_it_was_lost_keeps_its_id() -> None:
 def test_a_later_persons_head_needs_a_face_and_a_hand_its_persons_head() -> None:
     """A second person's head is taken up only with a face found on it (the first person's
     by its contour too); a hand only where its own person's head is the followed head nearest
-    above it."""
+    above it. A slot that never took a target up and may not take this one stays WAITING; one
+    that did is LOST."""
     people = PersonTracker(('head', 'hand'), max_people=2)
     first, second = people.slot('head'), people.slot('person_2/head')
     assert second.tracker.detector is not None, DLIB_MISSING
     result = TargetResult('TRACKING', _estimate(300.0, 60.0), initialised=True)
-    assert people._identify(second, result).status == 'LOST' and second.id == 0
+    assert people._identify(second, result).status == 'WAITING' and second.id == 0
+    assert second.tracker.status == 'WAITING'
     second.tracker.faces.last_face, second.tracker.frames_without_own_face = (290.0, 50.0, 20.0, 20.0), 0
     assert people._identify(second, result).tracking and second.id == 1
     assert people._identify(first, TargetResult('TRACKING', _estimate(100.0, 60.0), initialised=True)).tracking
     first_hand, second_hand = people.slot('hand'), people.slot('person_2/hand')
     near_second = TargetResult('TRACKING', _estimate(280.0, 160.0), initialised=True)
-    assert people._identify(first_hand, near_second).status == 'LOST' and first_hand.id == 0
+    assert people._identify(first_hand, near_second).status == 'WAITING' and first_hand.id == 0
     assert people._identify(second_hand, near_second).tracking and second_hand.id == 3
+    # Taken up once (by its own person's head), the first hand is LOST where it may not be.
+    assert people._identify(first_hand, TargetResult('TRACKING', _estimate(110.0, 160.0), initialised=True)).tracking
+    first_hand.tracker.status = 'TRACKING'
+    assert people._identify(first_hand, near_second).status == 'LOST' and first_hand.id == 0
 
 
 def test_a_hand_keeps_off_its_own_face_hidden_behind_another_person() -> None:

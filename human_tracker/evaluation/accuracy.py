@@ -196,6 +196,12 @@ def _row(
         'precision_20px_min': round(min(precisions), 3),
         'precision_20px_max': round(max(precisions), 3),
         'confident_wrong_max': max(summary['confident_wrong'] for summary in summaries),
+        # Ours only: a tracker without an estimate while not TRACKING cannot be falsely lost.
+        **(
+            {'falsely_lost_max': max(summary['falsely_lost'] for summary in summaries)}
+            if all('falsely_lost' in summary for summary in summaries)
+            else {}
+        ),
         **consistency,
         **identity,
     }

@@ -109,11 +109,31 @@ def _confident_wrong_share(errors: np.ndarray, truth: Sequence[Box | None]) -> f
     return float(np.mean(np.isfinite(errors) & (errors > 2.0 * widths)))
 
 
-def summarise(predicted: Sequence[Box | None], truth: Sequence[Box | None]) -> dict[str, float]:
-    """Precision at 20 px, success AUC, mean centre error, confident-wrong share and the annotated frame count."""
+def _falsely_lost_share(
+    predicted: Sequence[Box | None], estimated: Sequence[Box | None], truth: Sequence[Box | None]
+) -> float:
+    """Share of the annotated frames where no box is reported (the tracker does not say TRACKING)
+    although the filter's estimate lies within the true box's width of the true centre: a person
+    the robot is told is gone, who is followed."""
+    rows = zip(predicted, estimated, truth, strict=True)
+    annotated = [(p, e, t) for p, e, t in rows if t is not None and t[2] > 0 and t[3] > 0]
+    if not annotated:
+        return 0.0
+    lost = [p is None and e is not None and np.hypot(*_centre_offset(e, t)) <= t[2] for p, e, t in annotated]
+    return float(np.mean(lost))
+
+
+def summarise(
+    predicted: Sequence[Box | None], truth: Sequence[Box | None], estimated: Sequence[Box | None] | None = None
+) -> dict[str, float]:
+    """Precision at 20 px, success AUC, mean centre error, confident-wrong share and the annotated
+    frame count; with the filter's ``estimated`` boxes on every frame (None where it has none),
+    the falsely-lost share too."""
     errors = centre_errors(predicted, truth)
     finite = errors[np.isfinite(errors)]
+    extra = {} if estimated is None else {'falsely_lost': round(_falsely_lost_share(predicted, estimated, truth), 4)}
     return {
+        **extra,
         'confident_wrong': round(_confident_wrong_share(errors, truth), 4),
         'annotated_frames': int(errors.size),
         'precision_20px': precision_at(errors, 20.0),

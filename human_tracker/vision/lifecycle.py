@@ -1,7 +1,7 @@
 """A track's life: its state, the one function that changes it, and the tests that feed it.
 
-A target is WAITING (never taken up, or reset), TRACKING, or LOST (taken up once, not followed
-now; its filter may still hold an estimate). Every change of a target's state is
+A target is WAITING (never taken up, or reset; its filter may try a hypothesis), TRACKING, or
+LOST (taken up once, not followed now; its filter may still hold an estimate). Every change of a target's state is
 :func:`transition` applied to an :class:`Event`: a reader can list every way a track starts
 and ends here. A target is LOST after ``lost_frames`` weak frames in a row
 (:func:`weak_frame`), and TRACKING again when its evidence holds (:func:`recovers`), or when a
@@ -41,6 +41,7 @@ class Event(Enum):
     LOSS = 'weak for lost_frames frames in a row, or a face was found under a hand'
     RECOVERY = "a lost target's evidence holds again"
     MARK_LOST = 'told from outside: a gap in time, or another target holds it'
+    DECLINE = 'told from outside: a target never taken up may not be taken up here (a later person without a face)'
     RESET = 'the target is forgotten'
 
 
@@ -50,6 +51,7 @@ _TO = {
     Event.RESTART: TRACKING,
     Event.LOSS: LOST,
     Event.RESET: WAITING,
+    Event.DECLINE: WAITING,
 }
 
 

@@ -219,7 +219,7 @@ class PersonTracker:
             if slot.kind == 'head':
                 own = evidence if len(self.kinds) == 1 else evidence.with_cues(skin=None)
                 # Identified before the hands look: a head this slot may not take up (a later
-                # person's without a face) is LOST, no one's face to hand over or keep off.
+                # person's without a face) is not followed, no one's face to hand over or keep off.
                 found = tracker.step(own, exclude=exclude)
                 result = self._identify(slot, found)
                 if self.hands_handed_faces:
@@ -240,14 +240,16 @@ class PersonTracker:
         return [TrackedTarget(slot.id, slot.kind, slot.person, result, slot.name) for slot, result in ran]
 
     def _identify(self, slot: Slot, result: TargetResult) -> TargetResult:
-        """The slot's id and box after its tracker's ``result`` on this frame; the result, LOST
-        for a target the slot may not take up (:meth:`_may_take_up`)."""
+        """The slot's id and box after its tracker's ``result`` on this frame; the result, not
+        TRACKING for a target the slot may not take up (:meth:`_may_take_up`): WAITING while the
+        slot never took one up, else LOST."""
         if result.tracking and slot.jumped(result):
             slot.id = 0  # another target now: the one followed is gone
         if result.tracking and slot.id == 0:
             if not self._may_take_up(slot, result):
-                slot.tracker.mark_lost()
-                result = replace(result, status=LOST)
+                # Never taken up, it still waits; taken up before, it is lost.
+                slot.tracker.mark_lost() if slot.taken_up else slot.tracker.decline()
+                result = replace(result, status=slot.tracker.status)
             elif slot.holds(result.estimate.state):
                 slot.id = slot.held_id
             else:
@@ -255,6 +257,7 @@ class PersonTracker:
                 slot.id = self.last_id
             if slot.id:
                 slot.retire()
+                slot.taken_up = True
         elif not result.tracking and slot.id:
             if self.id_hold_frames and slot.last_state is not None:
                 slot.held_id, slot.held_state, slot.held_frames = slot.id, slot.last_state, 1
@@ -350,7 +353,7 @@ class PersonTracker:
 
     def _clear(self, slot: Slot) -> None:
         slot.tracker.reset()
-        slot.id, slot.last_state, slot.box = 0, None, None
+        slot.id, slot.last_state, slot.box, slot.taken_up = 0, None, None, False
         slot.retire()
 
     @staticmethod

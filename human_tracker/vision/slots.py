@@ -33,6 +33,8 @@ class Slot:
         held_id: The id it had when it was LOST, while that may come back (0: none).
         held_state: Its state on the last frame it was followed, camera pixels.
         held_frames: Frames it has been LOST.
+        taken_up: Whether its target has had an id since the slot was last cleared: one that
+            may not be taken up is then LOST, else still WAITING.
     """
 
     name: str
@@ -46,6 +48,7 @@ class Slot:
     held_id: int = 0
     held_state: np.ndarray | None = None
     held_frames: int = 0
+    taken_up: bool = False
 
     def holds(self, state: np.ndarray) -> bool:
         """Whether the slot holds an id for a target lost within :data:`HOLD_REACH` widths (its

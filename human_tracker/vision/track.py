@@ -128,6 +128,10 @@ class Track:
         self.status = transition(self.status, Event.START)
         self.weak_frames = 0
 
+    def decline(self) -> None:
+        """Say the target the filter found may not be taken up: it still waits (never taken up)."""
+        self.status = transition(self.status, Event.DECLINE)
+
     def mark_lost(self) -> None:
         """Declare the target lost (the next hypothesis may restart the filter)."""
         self.status = transition(self.status, Event.MARK_LOST)

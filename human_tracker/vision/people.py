@@ -247,8 +247,10 @@ class PersonTracker:
             slot.id = 0  # another target now: the one followed is gone
         if result.tracking and slot.id == 0:
             if not self._may_take_up(slot, result):
-                # Never taken up, it still waits; taken up before, it is lost.
-                slot.tracker.mark_lost() if slot.taken_up else slot.tracker.decline()
+                if slot.taken_up:
+                    slot.tracker.mark_lost()
+                else:
+                    slot.tracker.decline()  # never taken up: it still waits
                 result = replace(result, status=slot.tracker.status)
             elif slot.holds(result.estimate.state):
                 slot.id = slot.held_id

@@ -115,12 +115,12 @@ def _falsely_lost_share(
     """Share of the annotated frames where no box is reported (the tracker does not say TRACKING)
     although the filter's estimate lies within the true box's width of the true centre: a person
     the robot is told is gone, who is followed."""
-    rows = zip(predicted, estimated, truth, strict=True)
-    annotated = [(p, e, t) for p, e, t in rows if t is not None and t[2] > 0 and t[3] > 0]
-    if not annotated:
+    keep = _annotated(truth)
+    if not keep.any():
         return 0.0
-    lost = [p is None and e is not None and np.hypot(*_centre_offset(e, t)) <= t[2] for p, e, t in annotated]
-    return float(np.mean(lost))
+    widths = np.array([t[2] for t, k in zip(truth, keep, strict=True) if k])
+    unreported = np.array([p is None for p in predicted])[keep]
+    return float(np.mean(unreported & (centre_errors(estimated, truth) <= widths)))
 
 
 def summarise(

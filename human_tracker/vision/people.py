@@ -113,10 +113,10 @@ class PersonTracker:
         if self.id_hold_frames < 0:
             raise ValueError(f'id_hold_frames must be >= 0, got {self.id_hold_frames}')
         self.slots = []
-        wanted = [self.parameters.get(kind) or parameters_for(kind) for kind in set(self.kinds)]
-        if any(p.wants_faces for p in wanted) and face_detector_available():
+        wanted = {kind: self.parameters.get(kind) or parameters_for(kind) for kind in self.kinds}
+        if any(p.wants_faces for p in wanted.values()) and face_detector_available():
             # One detector for every target: their searches of a frame run together.
-            self.face_finder = FaceFinder(FaceDetector(), any(p.detector_thread for p in wanted))
+            self.face_finder = FaceFinder(FaceDetector(), any(p.detector_thread for p in wanted.values()))
         for person in range(1, self.max_people + 1):
             for place, kind in enumerate(self.kinds):
                 hand = self.kinds[: place + 1].count('hand')
@@ -126,7 +126,7 @@ class PersonTracker:
                 tracker = TargetTracker(
                     self.templates.get(kind) or make_template(kind),
                     replace(self.filter_parameters, seed=seed),
-                    self.parameters.get(kind) or parameters_for(kind),
+                    wanted[kind],
                     face_finder=self.face_finder,
                 )
                 self.slots.append(Slot(name, person, kind, hand, tracker))

@@ -61,6 +61,7 @@ from human_tracker.evaluation.accuracy import (
     real_people_table,
     wrong_cell,
 )
+from human_tracker.evaluation.facing import CLASSES
 from human_tracker.io.bags import read_frames
 from human_tracker.io.images import stamp_ns
 from human_tracker.ros.collector import PoseCollector
@@ -329,6 +330,8 @@ def _acceptance(results: dict[str, object]) -> list[dict[str, object]]:
         switched = sum(int(row['id_switches']) > 0 for row in people)  # type: ignore[call-overload]
         check(f'{runs}: seeds with an identity switch <= 0', switched, 0, at_most=True)
         check(f'{runs}: IDF1, worst seed >= 0.9', min(float(row['idf1']) for row in people), 0.9)  # type: ignore[arg-type]
+    for row in results.get('real_people', []):  # type: ignore[union-attr]
+        check(f'two real people side by side, seed {row["seed"]}: IDF1 >= 0.9', row['idf1'], 0.9)
     for row in results.get('latency', []):  # type: ignore[union-attr]
         if row['rate'] == 'full speed':
             continue
@@ -355,6 +358,12 @@ def _accuracy(bags: list[Path], real_data: Path, contrib_python: Path | None) ->
         rows.append(row)
         print(json.dumps(row))
     return rows
+
+
+def _facing_table(rows: list[dict[str, object]]) -> str:
+    """Our head's ``facing`` against the labels, per class, on the sequences labelled."""
+    columns = ['sequence', 'tracker', *(f'facing_{c}_{m}' for c in CLASSES for m in ('precision', 'recall'))]
+    return _table([row for row in rows if 'facing_unknown' in row], [*columns, 'facing_unknown'])
 
 
 def _thread_policy(sequence: Path, init: str | None, out: Path, runs: int = 3) -> list[dict[str, object]]:
@@ -532,6 +541,11 @@ def main(argv: list[str] | None = None) -> int:
             ' confident-wrong share over all runs)\n',
             _table(results['accuracy'], columns),
         ]
+        report += [
+            '## where a head faces (labels by eye on every tenth frame, pooled over the runs; '
+            'unknown: labelled frames reported unknown or not followed)\n',
+            _facing_table(results['accuracy']),  # type: ignore[arg-type]
+        ]
         results['skin'] = _skin(options.real_data)
         columns = ['sequence', 'method', 'truth', 'precision', 'recall', 'f1', 'mean_photo_f1']
         columns += ['labelled_fraction', 'regions', 'regions_found']
@@ -547,7 +561,7 @@ def main(argv: list[str] | None = None) -> int:
             slow_camera_rows,
             small_target_rows,
         )
-        from human_tracker.evaluation.several_people import two_people_rows
+        from human_tracker.evaluation.several_people import REAL_PAIR, side_by_side, two_people_rows
 
         titles = {
             'small': 'small targets in wide frames (real sequences in frames twice as wide and high)',
@@ -555,12 +569,16 @@ def main(argv: list[str] | None = None) -> int:
             'shake': f'a shaking camera (real sequences cropped {SHAKE_MARGIN} px in, the crop jolting)',
             'slow': f'a slow camera (real sequences, one frame in {SLOW_STEP})',
             'people': 'two people (people_crossing as a person, --max-people 2), seed by seed',
+            'real_people': f'two real people side by side ({" and ".join(REAL_PAIR)}, --max-people 2), seed by seed',
         }
         results['small'] = small_target_rows(options.real_data, options.out / 'conditions')
         results['dim'] = dim_light_rows(options.real_data, options.out / 'conditions')
         results['shake'] = shaken_camera_rows(options.real_data, options.out / 'conditions')
         results['slow'] = slow_camera_rows(options.real_data, options.out / 'conditions')
         results['people'] = two_people_rows(Path('bags/people_crossing'), options.out / 'conditions' / 'people')
+        pair = side_by_side(*(options.real_data / name for name in REAL_PAIR), options.out / 'conditions' / 'pair')
+        real_people = options.out / 'conditions' / 'real_people'
+        results['real_people'] = [] if pair is None else two_people_rows(pair, real_people, seeds=range(5))
         for name, title in titles.items():
             if results[name]:
                 # Each row's columns in order: the sequence, the setting, the start, the figures.
@@ -622,6 +640,7 @@ def main(argv: list[str] | None = None) -> int:
         if options.evaluation:
             write_between_markers(options.evaluation, 'real', real_people_table(results['accuracy']))  # type: ignore[arg-type]
             write_between_markers(options.evaluation, 'covariance', covariance_table(results['accuracy']))  # type: ignore[arg-type]
+            write_between_markers(options.evaluation, 'facing', _facing_table(results['accuracy']))  # type: ignore[arg-type]
     if options.evaluation:
         for name, table in conditions.items():
             write_between_markers(options.evaluation, name, table)

@@ -28,6 +28,7 @@ from human_tracker.evaluation.metrics import Box, summarise
 from human_tracker.evaluation.plots import plot_run
 from human_tracker.io.sequences import open_sequence
 from human_tracker.vision.cues import MOTION_CUES, CueStages, build_people
+from human_tracker.vision.outcomes import state_words
 from human_tracker.vision.people import TrackedTarget, kinds_of, targets_line
 from human_tracker.vision.skin import SkinParameters, SkinSegmenter, default_skin_model
 from human_tracker.vision.target_parameters import TargetParameters, parameters_for
@@ -63,6 +64,7 @@ POSE_COLUMNS = (
     'box_w',
     'box_h',
     'shape',
+    'facing',
     'motion_support',
     'skin_support',
     'appearance_distance',
@@ -293,18 +295,22 @@ def _several_tracks(
     """Scores of a sequence with several ground-truth tracks (``person_1/head``, ...): each
     track's precision against the target of its kind (the last part of its name) that matches
     it best (``kind_of``: each target's kind, by name), and MOTA, IDF1 and identity switches of
-    every target against every track."""
+    every target of an annotated kind against every track of its kind."""
     scores: dict[str, object] = {}
     for name, boxes in tracks.items():
         kind = name.rsplit('/', 1)[-1]
         precisions = [summarise(p, boxes)['precision_20px'] for slot, p in predicted.items() if kind_of[slot] == kind]
         if precisions:
             scores[name] = {'precision_20px': max(precisions)}
+    # A kind without a ground-truth track (hands beside heads annotated alone) is not scored.
+    annotated = {name.rsplit('/', 1)[-1] for name in tracks}
+    scored = {name: boxes for name, boxes in predicted.items() if kind_of[name] in annotated}
     reported = [
-        {ids[name][index]: box for name, boxes in predicted.items() if (box := boxes[index]) is not None}
+        {ids[name][index]: box for name, boxes in scored.items() if (box := boxes[index]) is not None}
         for index in range(len(next(iter(predicted.values()))))
     ]
-    return {'tracks': scores, 'all_tracks': identity_scores(tracks, reported)}
+    kinds = {i: kind_of[name] for name in scored for i in ids[name] if i}
+    return {'tracks': scores, 'all_tracks': identity_scores(tracks, reported, kinds=kinds)}
 
 
 def _pose_row(index: int, stamp_ns: int, outcome: TrackedTarget) -> list[object]:
@@ -321,6 +327,7 @@ def _pose_row(index: int, stamp_ns: int, outcome: TrackedTarget) -> list[object]
         *(index, stamp_ns, x, y, s, theta, round(estimate.confidence, 4), result.status),
         *shown,
         estimate.shape,
+        result.facing or '',
         *(round(v, 4) for v in support),
         *(round(float(v), 3) for v in (var_x, cov_xy, var_y)),
         *who,
@@ -339,7 +346,7 @@ def _annotated_frame(image: np.ndarray, outcomes: list[TrackedTarget], truth: Bo
             contour=None if estimate is None else estimate.contour,
             box=estimate.box if first.tracking else None,
             truth=truth,
-            label=f'{label} {first.status}',
+            label=f'{label} {state_words(first)}',
             detections=detections,
         )
     shown = annotate(image, truth=truth, label=f'{label} {targets_line(outcomes)}', detections=detections)

@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
-from human_tracker.vision.anchoring import FRESH_FACE_FRAMES
+from human_tracker.vision.anchoring import FRESH_FACE_FRAMES, UNCONFIRMED_FRAMES
 from human_tracker.vision.appearance import (
     HUE_BINS,
     NUM_BINS,
@@ -251,7 +251,8 @@ def test_an_automatic_start_reports_the_head_box_where_the_face_puts_it() -> Non
 
 def test_a_face_off_the_contour_restarts_only_a_target_found_by_itself() -> None:
     """A target found by itself is a head by its face: a face elsewhere restarts it. One started
-    from a box keeps its contour unless the face looks more like the target (smaller D)."""
+    from a box keeps its contour unless the face looks more like the target (smaller D), lies
+    beside it (FACE_BESIDE), or the head went unconfirmed by its face (UNCONFIRMED_FRAMES)."""
     tracker = TargetTracker(head_and_shoulders(), parameters=TargetParameters(proposals='off'))
     state = np.array([100.0, 100.0, 50.0, 0.0])
     estimate = TrackEstimate(state, np.eye(4), 0.9, 0.9, 100.0, (75.0, 68.0, 50.0, 62.5), np.zeros((1, 2)), 0.0, 0.3)
@@ -268,6 +269,13 @@ def test_a_face_off_the_contour_restarts_only_a_target_found_by_itself() -> None
     tracker.initialise_from_box((90.0, 95.0, 30.0, 30.0))
     assert tracker._restart_on_face(faces, None, estimate, unlike) is None
     assert tracker._restart_on_face(faces, None, estimate, alike) == 0
+    # A face of the head's size a head width beside the contour: the contour slid off the person.
+    beside = np.array([[200.0, 100.0, 50.0, 0.0], [150.0, 100.0, 50.0, 0.0]])
+    assert tracker._restart_on_face(beside, None, estimate, unlike) == 1
+    assert tracker._restart_on_face(np.array([[150.0, 100.0, 30.0, 0.0]]), None, estimate, unlike) is None  # smaller
+    # Its own face not seen for UNCONFIRMED_FRAMES frames: any face restarts it, as one found by itself.
+    tracker.frames_without_own_face = UNCONFIRMED_FRAMES
+    assert tracker._restart_on_face(faces, None, estimate, unlike) == 0
 
 
 def test_a_head_whose_face_was_just_seen_restarts_only_on_a_face_of_its_size() -> None:

@@ -69,6 +69,7 @@ def test_bars_are_applied_to_the_measured_figures() -> None:
             {'seed': 0, 'person_1/head': 1.0, 'person_1/hand': 0.95, 'idf1': 0.95, 'id_switches': 0},
             {'seed': 1, 'person_1/head': 0.99, 'person_1/hand': 0.7, 'idf1': 0.88, 'id_switches': 1},
         ],
+        'real_people': [{'seed': 0, 'person_1/head': 0.2, 'person_2/head': 1.0, 'idf1': 0.66, 'id_switches': 0}],
         'latency': [
             {
                 'layout': 'pipeline',
@@ -138,6 +139,7 @@ def test_bars_are_applied_to_the_measured_figures() -> None:
         ),
         'people_crossing, two people, 2 seeds (beyond the bar): seeds with an identity switch <= 0': (1, 0, False),
         'people_crossing, two people, 2 seeds (beyond the bar): IDF1, worst seed >= 0.9': (0.88, 0.9, False),
+        'two real people side by side, seed 0: IDF1 >= 0.9': (0.66, 0.9, False),
         'latency, pipeline, 30 Hz: poses received of 240 sent': (240, 240, True),
         'latency, pipeline, 30 Hz: median above processing (ms) <= 1': (0.8, 1.0, True),
         'latency, separate, 30 Hz: poses received of 240 sent': (239, 240, False),

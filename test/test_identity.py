@@ -5,8 +5,11 @@ from __future__ import annotations
 import csv
 
 import pytest
+from conftest import REAL_DATA
 
 from human_tracker.evaluation.identity import identity_scores, one_id_share, one_track
+from human_tracker.evaluation.several_people import REAL_PAIR, side_by_side
+from human_tracker.io.sequences import open_sequence
 from human_tracker.offline import POSE_COLUMNS, read_ids
 
 BOX = (100.0, 100.0, 40.0, 40.0)
@@ -63,3 +66,32 @@ def test_two_tracks_crossing_and_a_swap() -> None:
     reported = [{1: left, 2: right}, {1: left, 2: right}, {2: left, 1: right}, {1: left}]
     scores = identity_scores(truth, reported)
     assert scores == {'mota': round(1 - 2 / 6, 4), 'idf1': round(2 / 3, 4), 'id_switches': 2}
+
+
+def test_a_box_matches_only_a_track_of_its_kind() -> None:
+    """A hand on a face is no head: with the kinds given, the head track is missed and the hand
+    a false positive; without them the hand's box would count as the head."""
+    truth = {'person_1/head': [(0.0, 0.0, 10.0, 10.0)] * 4}
+    reported = [{2: (1.0, 1.0, 10.0, 10.0)}] * 4
+    assert identity_scores(truth, reported)['idf1'] == 1.0
+    scores = identity_scores(truth, reported, kinds={2: 'hand'})
+    assert scores['idf1'] == 0.0 and scores['mota'] == -1.0
+    assert identity_scores(truth, reported, kinds={2: 'head'})['idf1'] == 1.0
+
+
+@pytest.mark.skipif(not all((REAL_DATA / name).is_dir() for name in REAL_PAIR), reason='real sequences absent')
+def test_two_real_people_side_by_side(tmp_path) -> None:
+    """Each sequence scaled to 240 px high, trimmed to the shorter; each truth moved with its frame."""
+    bag = side_by_side(*(REAL_DATA / name for name in REAL_PAIR), tmp_path / 'pair')
+    frames = list(open_sequence(bag))
+    left, right = (list(open_sequence(REAL_DATA / name)) for name in REAL_PAIR)
+    assert len(frames) == min(len(left), len(right))
+    first = frames[0]
+    assert first.image.shape[0] == 240
+    k = 240 / left[0].image.shape[0]
+    assert first.ground_truths['person_1/head'] == pytest.approx(tuple(v * k for v in left[0].ground_truth))
+    k = 240 / right[0].image.shape[0]
+    x, *rest = right[0].ground_truth
+    offset = round(left[0].image.shape[1] * 240 / left[0].image.shape[0])
+    expected = (x * k + offset, *(v * k for v in rest))
+    assert first.ground_truths['person_2/head'] == pytest.approx(expected)

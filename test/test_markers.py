@@ -24,6 +24,8 @@ def test_the_contour_is_back_projected_at_the_depth() -> None:
     # Over the contour's middle in x, one text height above its top.
     np.testing.assert_allclose((label.pose.position.x, label.pose.position.y), (1.0 / 3.0, -1.0 - TEXT_HEIGHT))
     assert strip.header.frame_id == label.header.frame_id == 'cam'
+    head = target_markers(Header(), contour, 2.0, k, kind='head', ident=1, status='TRACKING', facing='away')
+    assert head.markers[1].text == 'head 1 TRACKING away'
     assert (
         strip.color
         != target_markers(Header(), contour, 2.0, k, kind='hand', ident=3, status='TRACKING').markers[0].color

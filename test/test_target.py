@@ -16,7 +16,7 @@ from human_tracker.vision.background import BackgroundModel
 from human_tracker.vision.faces import FACE_ON_HEAD, Detection
 from human_tracker.vision.optical_flow import OpticalFlow
 from human_tracker.vision.resolution import to_working, working_scale
-from human_tracker.vision.target import FACELESS_FRAMES, TargetParameters, TargetResult, TargetTracker
+from human_tracker.vision.target import TargetParameters, TargetResult, TargetTracker
 from human_tracker.vision.templates import head_and_shoulders
 from human_tracker.vision.tracker import TrackerParameters, state_from_box
 
@@ -420,26 +420,39 @@ def test_a_face_delivered_late_keeps_up_with_a_moving_head() -> None:
 
 
 @pytest.mark.parametrize('detect_every', [5, 1])
-def test_a_head_without_its_face_and_without_motion_becomes_lost(detect_every: int) -> None:
-    """With no moving region to say where the person is, a head whose face was seen is weak
-    after FACELESS_FRAMES frames without it, LOST ``lost_frames`` frames later (one more: the
-    detector's thread delivers its faces a frame late), and TRACKING again once its face is
-    back. Frames, not detector runs: with detect_every 1 the runs thin out to one in
-    ``patient_every`` frames (PATIENT_SEARCHES) before the 30 frames are up."""
+def test_a_head_turned_away_stays_tracking_and_faces_away(detect_every: int) -> None:
+    """Without a moving region, a head whose face was seen and is no longer found (a person
+    turned round) stays TRACKING while its contour fits as usual, whatever the detector's
+    cadence (with detect_every 1 its runs thin out to one in ``patient_every`` frames); it faces
+    toward the camera while its face is found and away once most of the last runs found none."""
     (frame, image), *_ = _frames('head_basic')
     face = _face_on_box(frame.ground_truth, image)
-    runs = FACELESS_FRAMES // 5  # the runs of detect_every 5 in FACELESS_FRAMES, one more finds the face
-    faceless = [[]] * runs + [[face]] if detect_every == 5 else [[]]
-    tracker = _face_tracker([[face], *faceless], detect_every)
+    tracker = _face_tracker([[face], [face], []], detect_every)
     tracker.initialise_from_box(frame.ground_truth)
-    statuses = [tracker.process(image).status for _ in range(5 * (runs + 1))]
+    results = [tracker.process(image) for _ in range(60)]
+    assert [r.status for r in results] == ['TRACKING'] * 60
     lag = int(tracker.parameters.detector_thread)
-    lost_at = FACELESS_FRAMES + tracker.parameters.lost_frames - 1 + lag
-    assert statuses[:lost_at] == ['TRACKING'] * lost_at
-    assert statuses[lost_at:] == ['LOST'] * (len(statuses) - lost_at)
-    if detect_every == 5:
-        # Its face is found again (and delivered a frame later).
-        assert [tracker.process(image).status for _ in range(1 + lag)][-1] == 'TRACKING'
+    assert results[detect_every + lag].facing == 'toward'
+    assert results[-1].facing == 'away'
+
+
+def test_a_head_whose_edges_fade_without_motion_is_lost() -> None:
+    """Without a moving region the edge fit is the silhouette's only evidence: once it falls
+    ``lost_fit_drop`` below the head's usual fit (the head smoothed away), the frames are weak
+    and the head LOST ``lost_frames`` frames later, before the fit reaches ``lost_confidence``."""
+    (frame, image), *_ = _frames('head_basic')
+    x, y, w, h = (int(v) for v in frame.ground_truth)
+    faded = image.copy()
+    region = (slice(y - h, y + 2 * h), slice(x - w, x + 2 * w))
+    faded[region] = cv2.GaussianBlur(image, (0, 0), 8.0)[region]
+    tracker = TargetTracker(head_and_shoulders(), TrackerParameters(seed=0), TargetParameters(proposals='off'))
+    tracker.initialise_from_box(frame.ground_truth)
+    assert [tracker.process(image).status for _ in range(20)] == ['TRACKING'] * 20
+    usual = tracker.usual_fit.mean
+    results = [tracker.process(faded) for _ in range(10)]
+    assert [r.status for r in results].index('LOST') == tracker.parameters.lost_frames - 1
+    assert tracker.parameters.lost_confidence < results[0].estimate.confidence
+    assert results[0].estimate.confidence < (1 - tracker.parameters.lost_fit_drop) * usual
 
 
 @pytest.mark.parametrize(('proposals', 'comes_back'), [('off', True), ('faces', False)])

@@ -25,6 +25,7 @@ import cv2
 import numpy as np
 
 from human_tracker.evaluation.baselines import run_baseline
+from human_tracker.evaluation.facing import LABELS, facing_scores, read_facing, read_labels
 from human_tracker.evaluation.identity import identity_scores, one_id_share, one_track
 from human_tracker.evaluation.metrics import Box, normalised_errors, summarise
 from human_tracker.io.sequences import open_sequence
@@ -253,7 +254,7 @@ def compare_on_sequence(
         for name, start, parameters in variants:
             # The target scored: a person's bag is scored on its first track, the head's.
             kind = target if name == 'person' else kinds_of(target)[0]
-            ours, ids, covariances, head_ids = [], [], [], []
+            ours, ids, covariances, head_ids, facings = [], [], [], [], []
             for seed in SEEDS:
                 options = TrackOptions(
                     target='person' if name == 'person' else target,
@@ -274,11 +275,15 @@ def compare_on_sequence(
                 if name == 'person' and kind != 'head':
                     head_ids.append(tracks['head'])
                 covariances.append(read_covariances(table, kind))
+                facings.append(read_facing(table, kind, offset=first))
             cues = 'background + skin' if summary['skin'] else 'background cue'
             row = _row(f'{name} ({cues}{"" if start else ", no box"})', ours, scored, ids, covariances)
             if head_ids:
                 # A person's head beside the hand scored: how long it keeps one id, worst run.
                 row['head_one_id_min'] = round(min(one_id_share(run) for run in head_ids), 3)
+            labels = LABELS / f'{Path(path).name}.csv'
+            if kind == 'head' and labels.is_file():
+                row.update(facing_scores(facings, read_labels(labels)))
             rows.append(row)
         for name in MAIN_WHEEL_BASELINES:
             runs = [

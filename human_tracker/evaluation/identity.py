@@ -43,7 +43,10 @@ def one_id_share(ids: Sequence[int]) -> float:
 
 
 def identity_scores(
-    truth: Mapping[str, Sequence[Box | None]], reported: Sequence[Mapping[int, Box]], threshold: float = 20.0
+    truth: Mapping[str, Sequence[Box | None]],
+    reported: Sequence[Mapping[int, Box]],
+    threshold: float = 20.0,
+    kinds: Mapping[int, str] | None = None,
 ) -> dict[str, float | int]:
     """MOTA, IDF1 and identity switches of the ``reported`` targets against the ``truth`` tracks.
 
@@ -52,6 +55,8 @@ def identity_scores(
             annotated, or out of view).
         reported: On each frame, the reported targets' boxes by id (``(x, y, w, h)`` pixels).
         threshold: Largest centre distance, pixels, at which a reported box matches a true one.
+        kinds: Each reported id's kind (``head``, ``hand``): it matches only the tracks whose
+            name ends in it (``person_1/head``); None: any track.
 
     Returns:
         ``mota`` and ``idf1`` (fractions, rounded to 4 places) and ``id_switches``.
@@ -74,6 +79,11 @@ def identity_scores(
         distances = motmetrics.distances.norm2squared_matrix(
             _centres([box for _, box in present]), _centres([box for _, box in hypotheses]), max_d2=threshold**2
         )
+        if kinds is not None:
+            for row, (k, _) in enumerate(present):
+                for column, (i, _) in enumerate(hypotheses):
+                    if names[k].rsplit('/', 1)[-1] != kinds[i]:
+                        distances[row, column] = np.nan  # a hand is no head
         frames.update([k for k, _ in present], [i for i, _ in hypotheses], distances)
     scores = motmetrics.metrics.create().compute(frames, metrics=['mota', 'idf1', 'num_switches'])
     return {

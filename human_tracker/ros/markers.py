@@ -40,6 +40,7 @@ def target_markers(
     kind: str,
     ident: int,
     status: str,
+    facing: str | None = None,
     lifetime: float = 0.5,
 ) -> MarkerArray:
     """The contour and label markers of one target.
@@ -52,6 +53,8 @@ def target_markers(
         kind: ``head`` or ``hand``: the namespace and the label's first word.
         ident: The target's id (>= 0).
         status: The tracker's state, in the label (TRACKING, LOST).
+        facing: Where a head faces (toward, side, away, unknown), after the state in the
+            label; None: not a head, or not followed.
         lifetime: Seconds before RViz drops the markers unless they are replaced.
     """
     points = back_project(contour, depth, camera_matrix)
@@ -61,7 +64,7 @@ def target_markers(
     strip.points = [Point(x=float(x), y=float(y), z=float(z)) for x, y, z in np.vstack([points, points[:1]])]
     label = _marker(header, kind, 2 * ident + 1, Marker.TEXT_VIEW_FACING, colour, lifetime)
     label.scale.z = TEXT_HEIGHT
-    label.text = f'{kind} {ident} {status}'
+    label.text = f'{kind} {ident} {status}' + ('' if facing is None else f' {facing}')
     # Above the contour's top (y points down in the optical frame), over its middle.
     label.pose.position = Point(x=float(points[:, 0].mean()), y=float(points[:, 1].min() - TEXT_HEIGHT), z=float(depth))
     return MarkerArray(markers=[strip, label])

@@ -33,6 +33,7 @@ from human_tracker.ros.tracker_parameters import SURFACE_TO_CENTRE, TARGET_WIDTH
 from human_tracker.vision.camera import metric_positions, position_covariance, undistort_pixels
 from human_tracker.vision.depth import region_depth
 from human_tracker.vision.lifecycle import LOST
+from human_tracker.vision.outcomes import state_words
 from human_tracker.vision.people import TrackedTarget, targets_line
 from human_tracker.vision.target import TargetResult, TargetTracker
 from human_tracker.vision.tracker import TrackEstimate, box_from_state
@@ -115,8 +116,10 @@ def estimate_values(result: TargetResult | None) -> dict[str, str]:
     if result is None or result.estimate is None:
         return {}
     estimate = result.estimate
+    facing = {} if result.facing is None else {'facing': str(result.facing)}
     return {
         'shape': estimate.shape,
+        **facing,
         'confidence': f'{estimate.confidence:.3f}',
         'motion_support': f'{estimate.motion_support:.3f}',
         'skin_support': f'{estimate.skin_support:.3f}',
@@ -175,7 +178,7 @@ def debug_view(
     label = (
         result.status
         if estimate is None
-        else f'{result.status} conf {estimate.confidence:.2f} motion {estimate.motion_support:.2f}'
+        else f'{state_words(result)} conf {estimate.confidence:.2f} motion {estimate.motion_support:.2f}'
         f' skin {estimate.skin_support:.2f} appearance {estimate.appearance_distance:.2f}'
     )
     if len(outcomes) > 1:
@@ -332,7 +335,10 @@ class TrackerOutputs:
             width = node.get_parameter('target_width').value
             depth = float(metric_positions(estimate.state, node.template, k, width)[2])
         contour = undistort_pixels(estimate.contour, k, distortion)
-        markers = target_markers(header, contour, depth, k, kind=node.kind, ident=0, status=result.status)
+        facing = result.facing if result.tracking else None
+        markers = target_markers(
+            header, contour, depth, k, kind=node.kind, ident=0, status=result.status, facing=facing
+        )
         self.markers_pub.publish(markers)
         self.markers_shown = True
 
@@ -340,13 +346,14 @@ class TrackerOutputs:
 class StatusTopic:
     """The node's latched ``status``: the primary target's state and its cues' support, stamped
     with the last frame tracked; sent at once when the state or the shape changes (a hand opening
-    or closing is a gesture), or the frames lose their colour, and every ``status_period``."""
+    or closing is a gesture), where a head faces changes, or the frames lose their colour, and every
+    ``status_period``."""
 
     def __init__(self, node: Any) -> None:
         self.node = node
         self.pub = node.create_publisher(DiagnosticArray, 'status', LATCHED_QOS)
         self.header = Header()
-        self.sent: tuple[str, str, bool] | None = None
+        self.sent: tuple[str, str, str, bool] | None = None
 
     def on_frame(self, header: Any) -> None:
         """A frame was tracked under ``header``: publish if what a consumer waits for changed."""
@@ -366,6 +373,9 @@ class StatusTopic:
         self.pub.publish(DiagnosticArray(header=self.header, status=[node_status(node, state, values, level=level)]))
         self.sent = self._key()
 
-    def _key(self) -> tuple[str, str, bool]:
-        estimate = None if self.node.last_result is None else self.node.last_result.estimate
-        return self.node.primary.status, '' if estimate is None else estimate.shape, self.node.last_frame_grey
+    def _key(self) -> tuple[str, str, str, bool]:
+        result = self.node.last_result
+        estimate = None if result is None else result.estimate
+        shape = '' if estimate is None else estimate.shape
+        facing = '' if result is None or result.facing is None else str(result.facing)
+        return self.node.primary.status, shape, facing, self.node.last_frame_grey

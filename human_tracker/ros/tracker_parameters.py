@@ -161,6 +161,13 @@ TARGET_PARAMETERS = (
         1.0,
     ),
     ParameterSpec('lost_frames', 'Consecutive weak frames after which the target is lost.', 1, 100000),
+    ParameterSpec(
+        'lost_fit_drop',
+        "Share the edge fit may fall below the target's usual fit before a frame without a motion mask,"
+        ' or with colours unlike its appearance, is weak.',
+        0.0,
+        1.0,
+    ),
     ParameterSpec('colour_edges', 'Detect edges on the colour image (strongest channel), not on its intensity.'),
     ParameterSpec('edge_blur_sigma', 'Gaussian pre-filter of the edge detector, pixels.', 0.0, 20.0),
     ParameterSpec('canny_low', 'Canny low hysteresis threshold.', 0.0, 10000.0),

@@ -20,13 +20,16 @@ from human_tracker.vision.faces import FACE_ON_HEAD, Detection
 from human_tracker.vision.tracker import Appearance, TrackEstimate
 
 __all__ = [
+    'FACE_BESIDE',
     'FACE_MATCH_DISTANCE',
     'FACE_MATCH_SIZE',
     'FACE_SIZE_CHANGE',
     'FRESH_FACE_FRAMES',
+    'UNCONFIRMED_FRAMES',
     'BoxAnchor',
     'could_be_own_face',
     'face_and_neck',
+    'face_beside',
     'face_on',
     'restart_on_face',
 ]
@@ -39,6 +42,12 @@ FACE_MATCH_SIZE = 1.75
 the hair must still find its face."""
 FRESH_FACE_FRAMES = 4
 """A head's own face is fresh while it was found within this many frames."""
+FACE_BESIDE = 1.2
+"""A face of the head's size (within ``FACE_SIZE_CHANGE``) whose head lies within this many head
+widths of the contour's, not on it: the contour slid off the person beside it."""
+UNCONFIRMED_FRAMES = 30
+"""A head started from a box whose own face was not found for this many frames is unconfirmed:
+it holds less firmly against a face found elsewhere (:func:`restart_on_face`)."""
 FACE_SIZE_CHANGE = 1.25
 """A face found away from a head whose face is fresh restarts it only within this factor of
 that face's size (or near where it was): another size elsewhere is someone else's face."""
@@ -133,6 +142,7 @@ def restart_on_face(
     started_from_box: bool,
     fresh_face: Box | None,
     lost_appearance_distance: float,
+    confirmed: bool = True,
 ) -> int | None:
     """Which detection (index into ``states``, the faces' head states, best first) restarts the
     filter, or None.
@@ -141,21 +151,40 @@ def restart_on_face(
     has no ``estimate``. None when ``face`` (a detection on the head) was found. A target
     found by itself (not ``started_from_box``) is a head by its face: without it, the first
     detection that could be its own face (:func:`could_be_own_face`). A target started from a
-    box, followed without its face: a face that looks more like the target than the estimate
-    does (a contour that slid onto clutter, or shrank onto part of the head).
+    box, followed without its face: a face of its size beside the contour
+    (:func:`face_beside`: the contour slid off the person), or one that looks more like the
+    target than the estimate does (a contour that slid onto clutter, or shrank onto part of the
+    head); once it is not
+    ``confirmed`` (its own face not found for :data:`UNCONFIRMED_FRAMES` frames), as a target
+    found by itself: the absence of its face does not make a head weak, but a contour no face
+    has confirmed for a while may hold clutter that fits as well as the head.
     """
     if not holding or estimate is None:
         return 0
     if face is not None:
         return None
-    if not started_from_box:
+    if not started_from_box or not confirmed:
         return could_be_own_face(states, fresh_face)
+    beside = face_beside(states, estimate.state)
+    if beside is not None:
+        return beside
     if appearance is None:
         return None
     distances = np.sqrt(appearance(states))
     k = int(np.argmin(distances))
     limit = min(lost_appearance_distance, estimate.appearance_distance)
     return k if distances[k] < limit else None
+
+
+def face_beside(states: np.ndarray, state: np.ndarray) -> int | None:
+    """Of the faces' head ``states``, the nearest whose head is within :data:`FACE_BESIDE` head
+    widths of the contour at ``state`` and of its size (within ``FACE_SIZE_CHANGE``); None."""
+    ratios = states[:, 2] / state[2]
+    distances = np.hypot(*(states[:, :2] - state[:2]).T) / state[2]
+    beside = (ratios >= 1 / FACE_SIZE_CHANGE) & (ratios <= FACE_SIZE_CHANGE) & (distances <= FACE_BESIDE)
+    if not beside.any():
+        return None
+    return int(np.flatnonzero(beside)[np.argmin(distances[beside])])
 
 
 def could_be_own_face(states: np.ndarray, fresh_face: Box | None) -> int | None:

@@ -38,11 +38,14 @@ class Detection(NamedTuple):
         score: The detector's confidence (SVM margin; > 0 is a face).
         carried: ``(dx, dy)`` pixels the box was moved from where the detector found it: a
             face found on an earlier frame, carried to where it is expected on this one.
+        view: Which of dlib's filters found it: 0 a face looking toward the camera, 1 and 2
+            looking to its left and right, 3 and 4 toward the camera, turned in the image.
     """
 
     box: tuple[float, float, float, float]
     score: float
     carried: tuple[float, float] = (0.0, 0.0)
+    view: int = 0
 
 
 def face_detector_available() -> bool:
@@ -92,10 +95,10 @@ class FaceDetector:
         """
         if image.ndim == 3:
             image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-        rectangles, scores, _ = self.load().run(self._contrast.apply(image), upsample, self.min_score)
+        rectangles, scores, views = self.load().run(self._contrast.apply(image), upsample, self.min_score)
         found = [
-            Detection((float(r.left()), float(r.top()), float(r.width()), float(r.height())), float(score))
-            for r, score in zip(rectangles, scores, strict=True)
+            Detection((float(r.left()), float(r.top()), float(r.width()), float(r.height())), float(score), view=int(v))
+            for r, score, v in zip(rectangles, scores, views, strict=True)
         ]
         return sorted(found, key=lambda d: -d.score)
 
@@ -121,8 +124,9 @@ class FaceDetector:
         interpolation = cv2.INTER_LINEAR if zoom > 1.0 else cv2.INTER_AREA
         crop = cv2.resize(crop, None, fx=zoom, fy=zoom, interpolation=interpolation)
         return [
-            Detection((left + bx / zoom, top + by / zoom, bw / zoom, bh / zoom), score)
-            for (bx, by, bw, bh), score, _ in self.detect(crop, upsample=0)
+            d._replace(box=(left + bx / zoom, top + by / zoom, bw / zoom, bh / zoom))
+            for d in self.detect(crop, upsample=0)
+            for bx, by, bw, bh in [d.box]
         ]
 
     def localise(self, image: np.ndarray, face: tuple[float, float, float, float], zooms: int = 5) -> tuple[float, ...]:

@@ -10,6 +10,7 @@ face or a hypothesis restarts it (:mod:`~human_tracker.vision.target`).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from enum import Enum, StrEnum
 from typing import TYPE_CHECKING
 
@@ -18,7 +19,21 @@ if TYPE_CHECKING:
     from human_tracker.vision.target_parameters import LossParameters
     from human_tracker.vision.tracker import TrackEstimate
 
-__all__ = ['TrackState', 'Event', 'transition', 'weak_frame', 'recovers', 'WAITING', 'TRACKING', 'LOST']
+__all__ = [
+    'FIT_MEMORY',
+    'LOST',
+    'TRACKING',
+    'WAITING',
+    'Event',
+    'TrackState',
+    'UsualFit',
+    'recovers',
+    'transition',
+    'weak_frame',
+]
+
+FIT_MEMORY = 30
+"""Frames over which :class:`UsualFit` forgets (its exponential mean's time constant)."""
 
 
 class TrackState(StrEnum):
@@ -37,7 +52,7 @@ class Event(Enum):
 
     START = 'a box was given, or a hypothesis taken up'
     START_UNCONFIRMED = 'a hypothesis was taken up on a head whose face was seen: lost until a face is found on it'
-    RESTART = 'a face was found where the filter had no, a weak or a faceless target'
+    RESTART = 'a face was found where the filter had no or a weak target'
     LOSS = 'weak for lost_frames frames in a row, or a face was found under a hand'
     RECOVERY = "a lost target's evidence holds again"
     MARK_LOST = 'told from outside: a gap in time, or another target holds it'
@@ -65,22 +80,46 @@ def transition(state: TrackState, event: Event) -> TrackState:
     return _TO[event]
 
 
+@dataclass
+class UsualFit:
+    """The edge fit a followed target usually has: the mean share of its contour's points on
+    edges over its steady frames, the last :data:`FIT_MEMORY` weighing most."""
+
+    mean: float | None = None
+    frames: int = 0
+
+    def add(self, confidence: float) -> None:
+        """A steady frame's fit: a running mean at first, then exponential."""
+        self.frames += 1
+        rate = max(1.0 / self.frames, 1.0 / FIT_MEMORY)
+        self.mean = confidence if self.mean is None else (1.0 - rate) * self.mean + rate * confidence
+
+    def below(self, confidence: float, drop: float) -> bool:
+        """Whether ``confidence`` lies more than the share ``drop`` below the usual fit."""
+        return self.mean is not None and confidence < (1.0 - drop) * self.mean
+
+
 def weak_frame(
-    estimate: TrackEstimate, parameters: LossParameters, cues: Cues, appearance_known: bool, faceless: bool
+    estimate: TrackEstimate, parameters: LossParameters, cues: Cues, appearance_known: bool, usual: UsualFit
 ) -> bool:
-    """Whether a frame is weak: too few contour points on edges (``lost_confidence``), on moving
-    pixels with a motion mask (``lost_motion_support``), or skin inside the contour with skin
-    labels in the likelihood (``lost_skin_support``); colours unlike the target's known
-    appearance (``lost_appearance_distance``); or a head whose face was seen, ``faceless`` for a
-    while, with no motion mask to say where the person is (the edge fit alone slides onto
-    clutter: a panning camera)."""
+    """Whether a frame is weak, by the silhouette's own evidence: too few contour points on
+    edges (``lost_confidence``), on moving pixels with a motion mask (``lost_motion_support``),
+    or skin inside the contour with skin labels in the likelihood (``lost_skin_support``); an
+    edge fit fallen ``lost_fit_drop`` below the ``usual`` one with no motion mask to say where
+    the person is (the edge fit alone slides onto clutter: a panning camera); or colours unlike
+    the target's known appearance (``lost_appearance_distance``) with the fit fallen too, or
+    with a motion mask. Without a mask a change of colour alone is a person turning round, and
+    a head LOST on it would come back only through a face; with one, a lost target comes back
+    through the moving region (:func:`recovers`)."""
     p = parameters
+    fallen = usual.below(estimate.confidence, p.lost_fit_drop)
+    recoloured = appearance_known and estimate.appearance_distance > p.lost_appearance_distance
     return (
         estimate.confidence < p.lost_confidence
-        or (appearance_known and estimate.appearance_distance > p.lost_appearance_distance)
         or (cues.motion is not None and estimate.motion_support < p.lost_motion_support)
         or (cues.likelihood_skin is not None and estimate.skin_support < p.lost_skin_support)
-        or (cues.motion is None and faceless)
+        or (recoloured and (fallen or cues.motion is not None))
+        or (fallen and cues.motion is None)
     )
 
 

@@ -9,10 +9,11 @@ from typing import NamedTuple
 import numpy as np
 
 from human_tracker.vision.boxes import box_centre
+from human_tracker.vision.facing import Facing
 from human_tracker.vision.lifecycle import TRACKING, TrackState
 from human_tracker.vision.tracker import TrackEstimate
 
-__all__ = ['TargetResult', 'TrackedTarget', 'primary_target', 'targets_line']
+__all__ = ['TargetResult', 'TrackedTarget', 'primary_target', 'state_words', 'targets_line']
 
 
 @dataclass
@@ -26,6 +27,8 @@ class TargetResult:
         motion_set_aside: Whether the frame's motion mask covered more than
             ``max_motion_fraction`` of it and was not used.
         detections: The detector's boxes (x, y, w, h, camera pixels) on this frame.
+        facing: Where a head faces (:mod:`~human_tracker.vision.facing`); None for a target
+            without a face detector (a hand).
     """
 
     status: TrackState
@@ -33,6 +36,7 @@ class TargetResult:
     initialised: bool = False
     motion_set_aside: bool = False
     detections: tuple[tuple[float, float, float, float], ...] = ()
+    facing: Facing | None = None
 
     @property
     def tracking(self) -> bool:
@@ -80,5 +84,11 @@ def primary_target(
 
 
 def targets_line(outcomes: Sequence[TrackedTarget]) -> str:
-    """Every target's name, id (- while it has none) and state: ``head 1 TRACKING, hand - LOST``."""
-    return ', '.join(f'{o.name or o.kind} {o.id or "-"} {o.result.status}' for o in outcomes)
+    """Every target's name, id (- while it has none), state and, for a followed head, where it
+    faces: ``head 1 TRACKING away, hand - LOST``."""
+    return ', '.join(f'{o.name or o.kind} {o.id or "-"} {state_words(o.result)}' for o in outcomes)
+
+
+def state_words(result: TargetResult) -> str:
+    """A target's state, and where it faces while it is a followed head: ``TRACKING toward``."""
+    return f'{result.status} {result.facing}' if result.facing is not None and result.tracking else str(result.status)

@@ -28,12 +28,13 @@ from typing import NamedTuple
 
 import numpy as np
 
-from human_tracker.vision.anchoring import face_and_neck, face_on, restart_on_face
+from human_tracker.vision.anchoring import UNCONFIRMED_FRAMES, face_and_neck, face_on, restart_on_face
 from human_tracker.vision.appearance import AppearanceModel
 from human_tracker.vision.boxes import Box, BoxRelation, centre_within
 from human_tracker.vision.evidence import Cues, Evidence, WorkingFrame, working_cues
 from human_tracker.vision.face_schedule import SEARCH_AFTER_MISSES, carry_faces
 from human_tracker.vision.faces import FACE_ON_HEAD, Detection
+from human_tracker.vision.facing import face_visible, facing_after_run
 from human_tracker.vision.lifecycle import LOST, TRACKING, Event, recovers, transition, weak_frame
 from human_tracker.vision.outcomes import TargetResult
 from human_tracker.vision.resolution import working_scale
@@ -52,16 +53,11 @@ from human_tracker.vision.track import Track
 from human_tracker.vision.tracker import Appearance, TrackEstimate
 
 __all__ = [
-    'FACELESS_FRAMES',
     'TargetParameters',
     'TargetResult',
     'TargetTracker',
     'parameters_for',
 ]
-
-FACELESS_FRAMES = 30
-"""Frames without its face after which a head whose face was seen is weak when no motion mask
-can say where the person is (counted in frames: detector runs thin out when none is found)."""
 
 
 class _Proposals(NamedTuple):
@@ -150,9 +146,12 @@ class TargetTracker(Track):
             # The box sits on the person where the start frame's estimate puts the contour.
             self.anchor.box_relation = BoxRelation.of(given_box, estimate.state)
         estimate = self._verify(
-            estimate, face_found, proposals, cues, frame.bins, appearance, given_box, initialised, avoided
+            estimate, face_found, proposals, cues, frame, appearance, given_box, initialised, avoided
         )
-        return TargetResult(self.status, estimate, initialised, cues.motion_set_aside, shown)
+        facing = (
+            self.facing_votes.facing if self.parameters.proposals == 'faces' and self.detector is not None else None
+        )
+        return TargetResult(self.status, estimate, initialised, cues.motion_set_aside, shown, facing)
 
     def hypothesis(
         self,
@@ -225,7 +224,7 @@ class TargetTracker(Track):
         estimate: TrackEstimate | None,
         appearance: Appearance | None,
     ) -> tuple[TrackEstimate | None, Detection | None, Appearance | None, bool]:
-        """Stage 4a: a face where the filter has no (or a weak, or a faceless) target restarts it
+        """Stage 4a: a face where the filter has no (or a weak) target restarts it
         there. Returns the estimate, the face found on the head (None), the appearance term and
         whether the filter restarted. The appearance learnt before is kept if the face still
         looks like it (the light may have changed)."""
@@ -278,16 +277,16 @@ class TargetTracker(Track):
         face: Detection | None,
         proposals: _Proposals,
         cues: Cues,
-        bins: np.ndarray | None,
+        frame: WorkingFrame,
         appearance: Appearance | None,
         given_box: Box | None,
         initialised: bool,
         avoided: list[Box],
     ) -> TrackEstimate:
-        """Stage 5: the box anchored, the weak-frame and loss tests, the appearance learnt; the
-        estimate in camera pixels."""
+        """Stage 5: the box anchored, the weak-frame and loss tests, the appearance learnt, where
+        a head faces; the estimate in camera pixels."""
         p = self.parameters.scaled(self.scale)
-        state = estimate.state
+        state, bins = estimate.state, frame.bins
         last = self.faces.last_face
         own_face = [last] if self.faces.face_misses == 0 and last is not None else []
         # A contour on a face kept off is a weak frame; on a face this frame's own run found
@@ -303,10 +302,11 @@ class TargetTracker(Track):
         if self.anchor.box_relation is not None:
             estimate = replace(estimate, box=self.anchor.box_relation.box(estimate.state))
         self.reported_state = state
-        faceless = self.frames_without_own_face >= FACELESS_FRAMES and self.anchor.face_relation is not None
-        weak = on_face or weak_frame(estimate, self.parameters, cues, appearance is not None, faceless)
+        weak = on_face or weak_frame(estimate, self.parameters, cues, appearance is not None, self.usual_fit)
         self.weak_frames = self.weak_frames + 1 if weak else 0
         self.steady_frames = 0 if weak else self.steady_frames + 1
+        if not weak and self.status == TRACKING:
+            self.usual_fit.add(estimate.confidence)
         if not weak and self.status == TRACKING and bins is not None:
             if self.appearance is not None:
                 self.appearance.adapt(bins, state, p.adaptation_rate)
@@ -324,6 +324,10 @@ class TargetTracker(Track):
             skin=cues.likelihood_skin is not None,
         ):
             self.status = transition(self.status, Event.RECOVERY)
+        if self.status != TRACKING:
+            self.facing_votes.clear()
+        elif proposals.head_faces is not None and not weak:  # a run looked at a head that fits
+            self.facing_votes.add(facing_after_run(face, face_visible(frame.grey, FACE_ON_HEAD.box(state))))
         if self.status == TRACKING and self.steady_frames >= p.lost_frames:
             # Only a size held as long as a loss takes changes the frame's size.
             self._fit_resolution(float(estimate.state[2]), self.scale)
@@ -391,6 +395,7 @@ class TargetTracker(Track):
             started_from_box=self.started_from_box,
             fresh_face=self._fresh_face(),
             lost_appearance_distance=self.parameters.lost_appearance_distance,
+            confirmed=self.frames_without_own_face < UNCONFIRMED_FRAMES,
         )
 
     def _skin_draws(self) -> dict[str, object]:

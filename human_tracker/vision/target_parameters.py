@@ -246,6 +246,9 @@ class LossParameters:
             above which a frame is weak, and above which a hypothesis does not start the
             filter once the target's appearance is known.
         lost_frames: Consecutive weak frames after which the target is lost.
+        lost_fit_drop: Share by which the edge fit may fall below the target's usual fit
+            before a frame is weak where nothing else vouches for the contour (no motion mask,
+            or colours unlike its appearance).
     """
 
     lost_confidence: float = 0.3
@@ -253,13 +256,21 @@ class LossParameters:
     lost_skin_support: float = 0.0
     lost_appearance_distance: float = 0.5
     lost_frames: int = 5
+    lost_fit_drop: float = 0.25
 
     def validate(self) -> None:
         """Raise ValueError naming the first parameter out of its range."""
         _within(
             self,
             lost_frames=(self.lost_frames >= 1, '>= 1'),
-            **_shares(self, 'lost_appearance_distance', 'lost_confidence', 'lost_motion_support', 'lost_skin_support'),
+            **_shares(
+                self,
+                'lost_appearance_distance',
+                'lost_confidence',
+                'lost_motion_support',
+                'lost_skin_support',
+                'lost_fit_drop',
+            ),
         )
 
 

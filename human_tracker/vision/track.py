@@ -22,7 +22,8 @@ from human_tracker.vision.evidence import FrameSettings
 from human_tracker.vision.face_finder import FaceFinder
 from human_tracker.vision.face_schedule import FaceSchedule
 from human_tracker.vision.faces import FaceDetector
-from human_tracker.vision.lifecycle import WAITING, Event, TrackState, transition
+from human_tracker.vision.facing import FacingVotes
+from human_tracker.vision.lifecycle import WAITING, Event, TrackState, UsualFit, transition
 from human_tracker.vision.resolution import finest_scale, track_width, working_scale
 from human_tracker.vision.target_parameters import TargetParameters
 from human_tracker.vision.templates import ContourTemplate
@@ -56,12 +57,16 @@ class Track:
     anchor: BoxAnchor = field(default_factory=BoxAnchor, init=False)
     faces: FaceSchedule = field(init=False)
     frames_without_own_face: int = field(default=0, init=False)
+    # The edge fit of its steady frames, what a weak frame falls below.
+    usual_fit: UsualFit = field(default_factory=UsualFit, init=False)
     camera: CameraShake = field(default_factory=CameraShake, init=False)
     # The state reported on the last frame (working pixels): with ``detector_thread``, the
     # contour on the frame the faces delivered on this one were found on.
     reported_state: np.ndarray | None = field(default=None, init=False, repr=False)
     start_box: Box | None = field(default=None, init=False)
     started_from_box: bool = field(default=False, init=False)
+    # Where a followed head faces: its detector runs' verdicts (:mod:`~human_tracker.vision.facing`).
+    facing_votes: FacingVotes = field(default_factory=FacingVotes, init=False)
 
     def __post_init__(self) -> None:
         self.parameters.validate()
@@ -121,6 +126,7 @@ class Track:
         self._fit_resolution(float(state[2]), 0.0)  # before the frame's size is known
         self.anchor = BoxAnchor(BoxRelation.of(box, state))  # until the contour settles on the next frame
         self.frames_without_own_face = 0
+        self.usual_fit = UsualFit()
         self.start_box = tuple(float(v) for v in box)  # type: ignore[assignment]
         self.started_from_box = True
         self.faces.drop_pending()  # its faces belong to the frame before the box
@@ -141,11 +147,13 @@ class Track:
         self.filter.reset()
         self.status = transition(self.status, Event.RESET)
         self.weak_frames = self.steady_frames = self.frames_without_own_face = 0
+        self.usual_fit = UsualFit()
         self.appearance = self.reported_state = self.start_box = self.finest_scale = None
         self.anchor = BoxAnchor()
         self.faces.reset()
         self.camera = CameraShake()
         self.started_from_box = False
+        self.facing_votes.clear()
 
     def frame_settings(self, frame_width: int) -> FrameSettings:
         """What this track's working frame of a frame ``frame_width`` pixels wide depends on."""

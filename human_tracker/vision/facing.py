@@ -1,0 +1,105 @@
+"""Where a followed head faces: toward the camera, to one side, away, or unknown.
+
+The silhouette of head and shoulders is the same from every side (the paper's point); the face
+detector is what tells the sides apart. dlib's HOG face detector is five linear filters: a face
+looking at the camera, looking to its left, looking to its right, and the first turned in the
+image plane either way (:attr:`~human_tracker.vision.faces.Detection.view`). So a detector run
+that finds a face on the head says whether it looks toward the camera or to a side; a run that
+looks where the face would be and finds none says the head is turned away, when a face there
+would be big and bright enough to be found; otherwise, and while the head is not followed, the
+facing is unknown. A single run misses a face now and then (a blink of motion blur, a tilt past
+the turned filters), so the facing reported is the verdict most of the last
+:data:`VOTING_RUNS` runs gave (:class:`FacingVotes`); between runs it holds.
+"""
+
+from __future__ import annotations
+
+from collections import Counter, deque
+from dataclasses import dataclass, field
+from enum import StrEnum
+
+import numpy as np
+
+from human_tracker.vision.boxes import Box
+from human_tracker.vision.faces import Detection
+
+__all__ = [
+    'FAINTEST_VISIBLE_FACE',
+    'SIDE_VIEWS',
+    'SMALLEST_VISIBLE_FACE',
+    'VOTING_RUNS',
+    'Facing',
+    'FacingVotes',
+    'face_visible',
+    'facing_after_run',
+]
+
+SIDE_VIEWS = frozenset({1, 2})
+"""dlib's filters for a face looking to its left and to its right (0: toward the camera; 3, 4:
+toward the camera, turned in the image plane)."""
+SMALLEST_VISIBLE_FACE = 16.0
+"""Narrower than this (working pixels) a face is too small for a run to find it: no verdict of ``away``."""
+FAINTEST_VISIBLE_FACE = 15.0
+"""Grey-level spread (standard deviation, of 255) around the face region under which it is too
+dark for a run to find a face there: no verdict of ``away``."""
+VOTING_RUNS = 3
+"""The detector runs whose verdicts :class:`FacingVotes` weighs."""
+
+
+class Facing(StrEnum):
+    """Where a head faces; its value is the word of ``poses.csv``, ``status`` and the markers."""
+
+    TOWARD = 'toward'
+    SIDE = 'side'
+    AWAY = 'away'
+    UNKNOWN = 'unknown'
+
+
+def face_visible(grey: np.ndarray, face: Box) -> bool:
+    """Whether a face at ``face`` (x, y, w, h, pixels of the ``(H, W) uint8`` image ``grey``)
+    would be found if it were there: wide enough (:data:`SMALLEST_VISIBLE_FACE`), inside the
+    image for at least half its area, and lit: the grey levels of the region twice its size
+    around it (the head and what is behind it; dark hair seen from behind is flat, a dark
+    scene is flat all round) spread over :data:`FAINTEST_VISIBLE_FACE`."""
+    x, y, w, h = face
+    height, width = grey.shape[:2]
+    inside_w = min(x + w, width) - max(x, 0.0)
+    inside_h = min(y + h, height) - max(y, 0.0)
+    if w < SMALLEST_VISIBLE_FACE or max(inside_w, 0.0) * max(inside_h, 0.0) < 0.5 * w * h:
+        return False
+    left, top = max(int(x - w / 2), 0), max(int(y - h / 2), 0)
+    around = grey[top : max(int(y + 1.5 * h), top + 1), left : max(int(x + 1.5 * w), left + 1)]
+    return float(around.std()) >= FAINTEST_VISIBLE_FACE
+
+
+def facing_after_run(face: Detection | None, visible: bool) -> Facing:
+    """The verdict of a detector run that looked at a followed head: the ``face`` it found on the
+    head (its filter tells toward from side), else ``away`` where a face would have been
+    ``visible`` (:func:`face_visible`), else unknown."""
+    if face is not None:
+        return Facing.SIDE if face.view in SIDE_VIEWS else Facing.TOWARD
+    return Facing.AWAY if visible else Facing.UNKNOWN
+
+
+@dataclass
+class FacingVotes:
+    """The verdicts of a followed head's last :data:`VOTING_RUNS` detector runs, and the facing
+    they give: the verdict most of them gave, the latest on a tie; unknown before any run."""
+
+    runs: deque[Facing] = field(default_factory=lambda: deque(maxlen=VOTING_RUNS))
+
+    @property
+    def facing(self) -> Facing:
+        """Where the head faces now."""
+        if not self.runs:
+            return Facing.UNKNOWN
+        counts = Counter(self.runs)
+        return max(reversed(self.runs), key=lambda verdict: counts[verdict])
+
+    def add(self, verdict: Facing) -> None:
+        """A run's verdict (:func:`facing_after_run`)."""
+        self.runs.append(verdict)
+
+    def clear(self) -> None:
+        """Forget the runs: the head is not followed."""
+        self.runs.clear()

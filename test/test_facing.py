@@ -1,0 +1,103 @@
+"""Where a head faces: a run's verdict, what a face needs to be found, the votes of the last runs,
+and the scores against labels by eye (``test/data/facing``)."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from conftest import REAL_DATA
+
+from human_tracker.evaluation.facing import LABELS, facing_scores, read_facing, read_labels
+from human_tracker.vision.faces import Detection, FaceDetector, face_detector_available
+from human_tracker.vision.facing import (
+    SMALLEST_VISIBLE_FACE,
+    VOTING_RUNS,
+    Facing,
+    FacingVotes,
+    face_visible,
+    facing_after_run,
+)
+
+TOWARD, SIDE, AWAY, UNKNOWN = Facing.TOWARD, Facing.SIDE, Facing.AWAY, Facing.UNKNOWN
+
+
+def test_a_run_says_toward_or_side_by_the_filter_that_found_the_face() -> None:
+    face = Detection((10.0, 10.0, 40.0, 40.0), 1.0)
+    assert facing_after_run(face, visible=True) == TOWARD
+    assert facing_after_run(face._replace(view=1), visible=True) == SIDE
+    assert facing_after_run(face._replace(view=2), visible=False) == SIDE
+    # The frontal filters turned in the image plane: a tilted head still faces the camera.
+    assert facing_after_run(face._replace(view=3), visible=True) == TOWARD
+    assert facing_after_run(face._replace(view=4), visible=True) == TOWARD
+
+
+def test_no_face_is_away_only_where_one_would_be_found() -> None:
+    assert facing_after_run(None, visible=True) == AWAY
+    assert facing_after_run(None, visible=False) == UNKNOWN
+
+
+def test_a_face_is_visible_when_big_textured_and_in_the_frame() -> None:
+    rng = np.random.default_rng(0)
+    textured = rng.integers(0, 256, (120, 160), dtype=np.uint8)
+    assert face_visible(textured, (40.0, 40.0, 30.0, 30.0))
+    assert not face_visible(textured, (40.0, 40.0, SMALLEST_VISIBLE_FACE - 1, SMALLEST_VISIBLE_FACE - 1))
+    assert not face_visible(textured, (145.0, 40.0, 40.0, 40.0))  # mostly out of the frame
+    dark = rng.integers(0, 12, (120, 160), dtype=np.uint8)  # a face in the dark: too flat for the detector
+    assert not face_visible(dark, (40.0, 40.0, 30.0, 30.0))
+
+
+def test_the_votes_give_most_of_the_last_runs_and_the_latest_on_a_tie() -> None:
+    votes = FacingVotes()
+    assert votes.facing == UNKNOWN
+    votes.add(TOWARD)
+    votes.add(AWAY)
+    assert votes.facing == AWAY  # a tie: the latest
+    votes.add(TOWARD)
+    assert votes.facing == TOWARD  # one missed face does not turn the head away
+    for _ in range(VOTING_RUNS):
+        votes.add(SIDE)
+    assert votes.facing == SIDE  # only the last runs count
+    votes.clear()
+    assert votes.facing == UNKNOWN
+
+
+def test_scores_per_class(tmp_path: Path) -> None:
+    labels = {0: TOWARD, 10: TOWARD, 20: SIDE, 30: AWAY}
+    runs = [{0: 'toward', 10: 'away', 20: 'side', 30: 'away'}, {0: 'toward', 10: '', 20: 'unknown', 30: 'away'}]
+    scores = facing_scores(runs, labels)
+    assert scores['facing_toward_precision'] == 1.0 and scores['facing_toward_recall'] == 0.5
+    assert scores['facing_away_precision'] == round(2 / 3, 3) and scores['facing_away_recall'] == 1.0
+    assert scores['facing_side_precision'] == 1.0 and scores['facing_side_recall'] == 0.5
+    assert scores['facing_unknown'] == 0.25
+    table = tmp_path / 'poses.csv'
+    with table.open('w', newline='') as handle:
+        writer = csv.writer(handle)
+        writer.writerow(['frame', 'facing', 'kind'])
+        writer.writerows([[0, 'toward', 'head'], [0, '', 'hand'], [1, 'away', 'head']])
+    assert read_facing(table, offset=5) == {5: 'toward', 6: 'away'}
+
+
+def test_the_labels_are_every_tenth_frame_in_the_three_classes() -> None:
+    for path in sorted(LABELS.glob('*.csv')):
+        labels = read_labels(path)
+        assert sorted(labels) == list(range(0, 10 * len(labels), 10)), path.name
+        assert set(labels.values()) <= {TOWARD, SIDE, AWAY}, path.name
+    assert {p.stem for p in LABELS.glob('*.csv')} >= {'girl_turning', 'david_colour', 'cap_and_book'}
+
+
+@pytest.mark.skipif(not face_detector_available(), reason='dlib absent')
+@pytest.mark.skipif(not (REAL_DATA / 'david_colour').is_dir(), reason='real sequences absent')
+def test_dlib_tells_a_turned_face_from_a_frontal_one_on_real_frames() -> None:
+    """david_colour: frame 300 looks at the camera, frame 450 three-quarters to his left."""
+    truth = (REAL_DATA / 'david_colour' / 'groundtruth.txt').read_text().split()
+    frames = sorted((REAL_DATA / 'david_colour' / 'img').iterdir())
+    detector = FaceDetector()
+    for index, expected in ((300, TOWARD), (450, SIDE)):
+        grey = cv2.imread(str(frames[index]), cv2.IMREAD_GRAYSCALE)
+        box = tuple(float(v) for v in truth[index].split(','))
+        (face,) = detector.detect_near(grey, box)
+        assert facing_after_run(face, face_visible(grey, face.box)) == expected, index

@@ -133,7 +133,8 @@ def test_markers_for_rviz_follow_the_contour_at_the_pose_depth(head_bag, tmp_pat
         strip, label = array.markers
         assert {strip.header.frame_id, label.header.frame_id} == {'camera_optical_frame'}
         assert (strip.ns, strip.id, strip.type, label.id, label.type) == ('human_tracker/head', 0, 4, 1, 9)
-        assert label.text == 'head 0 TRACKING' and label.scale.z > 0 and strip.scale.x > 0
+        assert re.fullmatch(r'head 0 TRACKING (toward|side|away|unknown)', label.text), label.text
+        assert label.scale.z > 0 and strip.scale.x > 0
         assert strip.color.a == label.color.a == 1.0 and strip.lifetime.nanosec > 0
         points = np.array([[p.x, p.y, p.z] for p in strip.points])
         np.testing.assert_allclose(points[0], points[-1])  # closed
@@ -316,7 +317,7 @@ def test_a_person_pipeline_names_each_target_on_targets(tmp_path) -> None:
         hand.append(centre)
     assert ids['hand'] and not ids['head'] & ids['hand']
     listed = collector.diagnostics['/tracker_node']['targets']  # the last frame's
-    assert re.fullmatch(r'head (\d+|-) [A-Z]+, hand (\d+|-) [A-Z]+', listed), listed
+    assert re.fullmatch(r'head (\d+|-) [A-Z]+( (toward|side|away|unknown))?, hand (\d+|-) [A-Z]+', listed), listed
     track_sequence(bag, tmp_path / 'offline', TrackOptions(target='person', video=False, progress=False))
     offline = read_tracks(tmp_path / 'offline' / 'poses.csv')['hand']
     assert [c is not None for c in hand] == [b is not None for b in offline]

@@ -163,8 +163,8 @@ TARGET_PARAMETERS = (
     ParameterSpec('lost_frames', 'Consecutive weak frames after which the target is lost.', 1, 100000),
     ParameterSpec(
         'lost_fit_drop',
-        "Share the edge fit may fall below the target's usual fit before a frame without a motion mask,"
-        ' or with colours unlike its appearance, is weak.',
+        "Share the edge fit may fall below the target's usual fit before a frame without a motion mask is"
+        ' weak (without a mask, a change of colour is weak only with it).',
         0.0,
         1.0,
     ),

@@ -247,8 +247,8 @@ class LossParameters:
             filter once the target's appearance is known.
         lost_frames: Consecutive weak frames after which the target is lost.
         lost_fit_drop: Share by which the edge fit may fall below the target's usual fit
-            before a frame is weak where nothing else vouches for the contour (no motion mask,
-            or colours unlike its appearance).
+            before a frame without a motion mask is weak; without a mask, colours unlike the
+            target's appearance make a frame weak only with the fit fallen too.
     """
 
     lost_confidence: float = 0.3

@@ -151,10 +151,9 @@ def restart_on_face(
     has no ``estimate``. None when ``face`` (a detection on the head) was found. A target
     found by itself (not ``started_from_box``) is a head by its face: without it, the first
     detection that could be its own face (:func:`could_be_own_face`). A target started from a
-    box, followed without its face: a face of its size beside the contour
-    (:func:`face_beside`: the contour slid off the person), or one that looks more like the
-    target than the estimate does (a contour that slid onto clutter, or shrank onto part of the
-    head); once it is not
+    box, followed without its face: a face of its size beside the contour (:func:`face_beside`:
+    the contour slid off the person), or one that looks more like the target than the estimate
+    does (a contour that slid onto clutter, or shrank onto part of the head); once it is not
     ``confirmed`` (its own face not found for :data:`UNCONFIRMED_FRAMES` frames), as a target
     found by itself: the absence of its face does not make a head weak, but a contour no face
     has confirmed for a while may hold clutter that fits as well as the head.

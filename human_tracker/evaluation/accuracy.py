@@ -251,6 +251,7 @@ def compare_on_sequence(
             variants.append(('paper', init, settings))
         if person:
             variants += [('person', init, None), ('person', None, None)]
+        labels = LABELS / f'{Path(path).name}.csv'  # where heads are labelled by where they face
         for name, start, parameters in variants:
             # The target scored: a person's bag is scored on its first track, the head's.
             kind = target if name == 'person' else kinds_of(target)[0]
@@ -275,14 +276,14 @@ def compare_on_sequence(
                 if name == 'person' and kind != 'head':
                     head_ids.append(tracks['head'])
                 covariances.append(read_covariances(table, kind))
-                facings.append(read_facing(table, kind, offset=first))
+                if labels.is_file():
+                    facings.append(read_facing(table, kind, offset=first))
             cues = 'background + skin' if summary['skin'] else 'background cue'
             row = _row(f'{name} ({cues}{"" if start else ", no box"})', ours, scored, ids, covariances)
             if head_ids:
                 # A person's head beside the hand scored: how long it keeps one id, worst run.
                 row['head_one_id_min'] = round(min(one_id_share(run) for run in head_ids), 3)
-            labels = LABELS / f'{Path(path).name}.csv'
-            if kind == 'head' and labels.is_file():
+            if any(word for run in facings for word in run.values()):  # a tracker that says where heads face
                 row.update(facing_scores(facings, read_labels(labels)))
             rows.append(row)
         for name in MAIN_WHEEL_BASELINES:

@@ -15,10 +15,15 @@ export PYTHONHASHSEED := 0
 
 venv: $(STAMP)
 
-$(STAMP): requirements.txt requirements-dev.txt setup.py
+# tf2_msgs, hri_msgs and vision_msgs are not on PyPI: built from interfaces/ into the venv (about
+# a minute and a half; on a robot they come from apt).
+INTERFACES := requirements-interfaces.txt tools/build_interfaces.py $(wildcard interfaces/*/*.* interfaces/*/msg/*.msg)
+
+$(STAMP): requirements.txt requirements-dev.txt setup.py $(INTERFACES)
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade "pip>=24"
-	$(PY) -m pip install --quiet -r requirements-dev.txt
+	$(PY) -m pip install --quiet -r requirements-dev.txt -r requirements-interfaces.txt
+	$(PY) tools/build_interfaces.py
 	# The checkout, installed in place: every executable of setup.py lands in .venv/bin, as
 	# `ros2 run` finds them after `colcon build`.
 	$(PY) -m pip install --quiet --no-deps --no-build-isolation --editable .
@@ -28,17 +33,18 @@ demo: $(STAMP)
 	$(PY) -m human_tracker.demo --bag bags/head_basic --out out/demo
 
 test: $(STAMP)
-	$(PY) -m ruff check human_tracker test launch setup.py
+	$(PY) -m ruff check human_tracker test launch setup.py tools
 	$(PY) -m pytest -q test
 
 # The tests again with a Jazzy robot's numpy 1.26 and OpenCV 4.6 (rosdep's versions) in .venv-robot;
 # the colcon build is left to `make test`. numba keeps its compiled kernels apart for these versions.
 ROBOT := .venv-robot
-$(ROBOT)/.installed-stamp: requirements.txt requirements-robot.txt setup.py
+$(ROBOT)/.installed-stamp: requirements.txt requirements-robot.txt setup.py $(INTERFACES)
 	test -x $(ROBOT)/bin/python || $(PYTHON) -m venv $(ROBOT)
 	$(ROBOT)/bin/python -m pip install --quiet --upgrade "pip>=24"
 	grep -v -E '^(numpy|opencv-python-headless)==' requirements.txt > $(ROBOT)/requirements.txt
-	$(ROBOT)/bin/python -m pip install --quiet -r $(ROBOT)/requirements.txt -r requirements-robot.txt
+	$(ROBOT)/bin/python -m pip install --quiet -r $(ROBOT)/requirements.txt -r requirements-robot.txt -r requirements-interfaces.txt
+	$(ROBOT)/bin/python tools/build_interfaces.py
 	$(ROBOT)/bin/python -m pip install --quiet --no-deps --no-build-isolation --editable .
 	touch $@
 
@@ -47,7 +53,7 @@ test-robot-stack: $(ROBOT)/.installed-stamp
 	NUMBA_CACHE_DIR=$(CURDIR)/$(ROBOT)/numba-cache $(ROBOT)/bin/python -m pytest -q test --ignore=test/test_package_build.py
 
 lint: $(STAMP)
-	$(PY) -m ruff check human_tracker test launch setup.py
+	$(PY) -m ruff check human_tracker test launch setup.py tools
 
 # The README's annotated real sequence: sunshade (hand-held camera, 25 px head) tracked from its first box.
 docs: $(STAMP)

@@ -21,10 +21,13 @@ def environment() -> dict[str, str]:
 
 
 @contextmanager
-def collecting(*, markers: bool = False) -> Iterator[tuple[PoseCollector, SingleThreadedExecutor]]:
-    """rclpy up, a PoseCollector spun by its own executor (with ``markers``: those too); everything torn down after."""
+def collecting(
+    *, markers: bool = False, standard: bool = False
+) -> Iterator[tuple[PoseCollector, SingleThreadedExecutor]]:
+    """rclpy up, a PoseCollector spun by its own executor (with ``markers``, ``standard``: those
+    too); everything torn down after."""
     rclpy.init()
-    collector = PoseCollector(markers=markers)
+    collector = PoseCollector(markers=markers, standard=standard)
     executor = SingleThreadedExecutor()
     executor.add_node(collector)
     try:
@@ -44,11 +47,13 @@ def replay_and_collect(
     rate: float = 2.0,
     diagnostics_of: str = '',
     markers: bool = False,
+    standard: bool = False,
 ) -> PoseCollector:
     """Start ``nodes``, replay ``bag`` into them, return what was published (all frames or 20 s).
 
     Every node must subscribe to the camera topic; the replay starts when each has said it
-    is ready. With ``diagnostics_of``, ``expected`` is the
+    is ready. With ``standard``, the standard outputs are collected too (TF, REP-155,
+    vision_msgs). With ``diagnostics_of``, ``expected`` is the
     number of frames that node must report processed in /diagnostics (instead of poses). With
     ``markers``, the RViz markers are collected too (and awaited as the poses are).
     """
@@ -69,7 +74,7 @@ def replay_and_collect(
         environment(),
         tmp / 'bag_play.log',
     )
-    with collecting(markers=markers) as (collector, executor):
+    with collecting(markers=markers, standard=standard) as (collector, executor):
         try:
             for node in nodes:
                 node.start()

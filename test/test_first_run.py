@@ -17,6 +17,7 @@ import numba
 import numpy as np
 import pytest
 import rclpy
+import yaml
 from conftest import BAGS, REPO
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -363,6 +364,11 @@ def test_the_launch_file_opens_the_shipped_rviz_view_when_asked() -> None:
     arguments = ast.unparse(next(k.value for k in rviz2[0].keywords if k.arg == 'arguments'))
     assert "'human_tracker.rviz'" in arguments and "LaunchConfiguration('camera_frame')" in arguments
     assert ast.unparse(next(k.value for k in rviz2[0].keywords if k.arg == 'condition')) == 'IfCondition(rviz)'
+    view = yaml.safe_load((REPO / 'config' / 'human_tracker.rviz').read_text())
+    displays = {d['Class']: d for d in view['Visualization Manager']['Displays']}
+    # The targets' TF frames (face_<id>, hand_<id>) are drawn and named.
+    assert displays['rviz_default_plugins/TF']['Show Names'] is True
+    assert {'rviz_default_plugins/MarkerArray', 'rviz_default_plugins/Image'} <= set(displays)
 
 
 # Offline command ----------------------------------------------------------------------------------

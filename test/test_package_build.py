@@ -70,6 +70,8 @@ def _sourced(install: Path, command: str, **kwargs) -> subprocess.Popen:
 
 
 def test_share_files_and_scripts_are_installed(install_space: Path) -> None:
+    # One package: the interfaces/ copies (COLCON_IGNORE) are not built over a robot's own.
+    assert sorted(p.name for p in install_space.iterdir() if p.is_dir()) == ['human_tracker']
     share = install_space / 'human_tracker' / 'share'
     assert (share / 'ament_index' / 'resource_index' / 'packages' / 'human_tracker').exists()
     for name in (

@@ -22,6 +22,7 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
 from ros_harness import collecting, environment, replay_and_collect
+from scipy.spatial.transform import Rotation
 from sensor_msgs.msg import RegionOfInterest
 from std_srvs.srv import Trigger
 from test_target import track
@@ -37,10 +38,11 @@ from human_tracker.io.bags import (
     read_frames,
     write_scene_bag,
 )
-from human_tracker.io.images import message_to_bgr8
+from human_tracker.io.images import message_to_bgr8, stamp_ns
 from human_tracker.offline import TrackOptions, read_poses, read_tracks, track_sequence
 from human_tracker.ros.collector import PoseCollector
 from human_tracker.ros.processes import NodeProcess
+from human_tracker.ros.standard_outputs import frame_name, target_name
 from human_tracker.scenes.generator import HEAD_WIDTH, SCENES, render_scene
 from human_tracker.vision.boxes import box_centre
 from human_tracker.vision.camera import back_project, default_camera_matrix, metric_positions
@@ -346,7 +348,14 @@ def test_two_people_over_dds_are_the_offline_commands(tmp_path) -> None:
     args += ['-p', 'target:=person', '-p', 'max_people:=2']
     pipeline = NodeProcess('human_tracker.ros.pipeline', args, environment(), tmp_path / 'pipeline.log')
     collector = replay_and_collect(
-        pipeline, bag, COMPRESSED_CAMERA_TOPIC, tmp_path, len(frames), rate=0.5, diagnostics_of='/tracker_node'
+        pipeline,
+        bag,
+        COMPRESSED_CAMERA_TOPIC,
+        tmp_path,
+        len(frames),
+        rate=0.5,
+        diagnostics_of='/tracker_node',
+        standard=True,
     )
     assert collector.diagnostics['/tracker_node']['frames_processed'] == str(len(frames))
     height, width = message_to_bgr8(frames[0].message).shape[:2]
@@ -421,6 +430,74 @@ def test_two_people_over_dds_are_the_offline_commands(tmp_path) -> None:
                 near += truth is not None and np.hypot(*np.subtract(centre, box_centre(truth))) <= 20.0
         print(f'{person}/head over DDS: within 20 px of its truth on {near} of its {in_view} frames in view')
         assert near >= 0.9 * in_view
+    _check_standard_outputs(collector, frames, rows, (height, width))
+
+
+def _lookup(transforms: list[Any], target: str, source: str) -> tuple[np.ndarray, Rotation]:
+    """tf2's lookup on one stamp's transforms: ``source``'s origin and axes in ``target``, along
+    the chain of parents from ``source`` up to ``target``."""
+    parent_of = {t.child_frame_id: t for t in transforms}
+    position, rotation = np.zeros(3), Rotation.identity()
+    frame = source
+    while frame != target:
+        link = parent_of[frame].transform  # KeyError: no chain to the target
+        turn = Rotation.from_quat([link.rotation.x, link.rotation.y, link.rotation.z, link.rotation.w])
+        position = turn.apply(position) + [link.translation.x, link.translation.y, link.translation.z]
+        rotation = turn * rotation
+        frame = parent_of[frame].header.frame_id
+    return position, rotation
+
+
+def _check_standard_outputs(
+    collector: PoseCollector, frames: list[Any], rows: list[dict[str, str]], shape: tuple[int, int]
+) -> None:
+    """What the people_crossing pipeline published on the standard outputs, as their consumers
+    read it: each TRACKING target of ``targets`` has a TF frame whose tf2 lookup is its pose (to
+    1 mm), and the same id on ``detections`` and ``detections_3d`` (the 3-D detection at its pose);
+    a ROS4HRI client sees each head's face id listed from its third frame TRACKING in a row to
+    its last, each region it gets the offline command's box of that head on that frame (within
+    the image)."""
+    height, width = shape
+    boxes = {
+        (int(r['frame']), int(r['id'])): [float(r[c]) for c in ('box_x', 'box_y', 'box_w', 'box_h')]
+        for r in rows
+        if r['kind'] == 'head' and r['status'] == 'TRACKING'
+    }
+    listed = {stamp_ns(m.header): set(m.ids) for m in collector.tracked}
+    heads_before: list[set[int]] = []
+    regions = 0
+    for index, frame in enumerate(frames):
+        stamp = frame.stamp_ns
+        targets = {
+            (o.child_frame_id.split('/')[1].split('_')[0], int(o.child_frame_id.split('_')[-1])): o
+            for o in collector.targets.get(stamp, [])
+        }
+        detections = {d.id: d for d in collector.detections[stamp].detections}
+        metric = {d.id: d for d in collector.detections_3d[stamp].detections}
+        assert set(detections) == set(metric) == {target_name(kind, ident) for kind, ident in targets}
+        for (kind, ident), odometry in targets.items():
+            name = target_name(kind, ident)
+            classes = {found[name].results[0].hypothesis.class_id for found in (detections, metric)}
+            assert classes == {kind}
+            expected = odometry.pose.pose.position
+            assert _same_point(metric[name].results[0].pose.pose.position, expected)
+            position, _ = _lookup(collector.transforms[stamp], odometry.header.frame_id, frame_name(kind, ident))
+            np.testing.assert_allclose(position, (expected.x, expected.y, expected.z), atol=1e-3)
+        heads = {ident for kind, ident in targets if kind == 'head'}
+        heads_before.append(heads)
+        # Listed on the frames it has been TRACKING for the last face_confirm_frames (3) in a row.
+        confirmed = set.intersection(*heads_before[-3:]) if index >= 2 else set()
+        assert listed[stamp] == {target_name('head', ident) for ident in confirmed}, index
+        for ident in confirmed:
+            region = collector.regions[target_name('head', ident)].get(stamp)
+            if region is not None:
+                regions += 1
+                x, y, w, h = boxes[index, ident]
+                corners = (region.xmin * width, region.ymin * height, region.xmax * width, region.ymax * height)
+                inside = np.clip((x, y, x + w, y + h), 0.0, (width, height, width, height))
+                np.testing.assert_allclose(corners, inside, atol=0.02)
+    print(f'standard outputs: {len(collector.tracked)} face lists, {regions} face regions as the offline boxes')
+    assert regions >= 0.9 * sum(len(heads) for heads in heads_before[2:]) - 5
 
 
 def _same_point(a: Any, b: Any) -> bool:
@@ -739,7 +816,9 @@ def _change_state(node: Node, executor: Any, target: str, transition: int) -> bo
 def test_a_managed_tracker_works_only_while_active(tmp_path, head_bag) -> None:
     """tracker_node with managed:=true waits unconfigured: the frames of a replay are dropped
     unconverted (counted inactive) and nothing is published; configured and activated, it
-    tracks the next replay from the start box; deactivated, it drops frames again."""
+    tracks the next replay from the start box; deactivated, it drops frames again, and its face
+    leaves REP-155's list at once; activated again, the replay's face is listed; stopped, the list
+    is empty."""
     frames = list(read_frames(head_bag))[:20]
     bag = write_bag_for_test(tmp_path, frames)
     env = environment()
@@ -763,7 +842,12 @@ def test_a_managed_tracker_works_only_while_active(tmp_path, head_bag) -> None:
             values = collector.spin_until_diagnostics(executor, '/tracker_node', 5.0)
         return values
 
-    with collecting() as (collector, executor):
+    def spin(seconds: float) -> None:
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+
+    with collecting(standard=True) as (collector, executor):
         try:
             tracker.start()
             assert collector.wait_for_publisher(executor, 60.0), tracker.output()
@@ -777,12 +861,27 @@ def test_a_managed_tracker_works_only_while_active(tmp_path, head_bag) -> None:
             while len(collector.poses) < len(frames) and time.monotonic() < deadline:
                 executor.spin_once(timeout_sec=0.05)
             active = diagnostics(collector, executor, 2 * len(frames))
+            faces_while_active = list(collector.tracked[-1].ids)
             assert _change_state(collector, executor, '/tracker_node', Transition.TRANSITION_DEACTIVATE)
+            spin(0.5)
+            faces_once_inactive = list(collector.tracked[-1].ids)
+            regions_once_inactive = collector.count_publishers('/humans/faces/f00001/roi')
             poses = len(collector.poses)
             replay('deactivated')
             deactivated = diagnostics(collector, executor, 3 * len(frames))
+            assert _change_state(collector, executor, '/tracker_node', Transition.TRANSITION_ACTIVATE)
+            replay('active again')
+            spin(2.0)
+            faces_active_again = list(collector.tracked[-1].ids)
         finally:
             assert tracker.stop() == 0
+        spin(1.0)
+    print(f'faces: active {faces_while_active}, inactive {faces_once_inactive}, active again {faces_active_again}')
+    print(f'after the node stopped: {list(collector.tracked[-1].ids)}')
+    # REP-155: the face leaves the list, and its region topic, as soon as nothing is tracked.
+    assert faces_while_active == ['f00001'] and faces_once_inactive == [] and regions_once_inactive == 0
+    # The replay starts over (time went back): a new track, under a new id.
+    assert faces_active_again == ['f00002'] and collector.tracked[-1].ids == []
     print(f'inactive: {inactive}\nactive: {active}\ndeactivated: {deactivated}')
     assert inactive['frames_inactive'] == str(len(frames)) and inactive['frames_processed'] == '0'
     assert inactive['state'] == 'WAITING'

@@ -6,11 +6,14 @@ import time
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import PolygonStamped, PoseWithCovarianceStamped, TwistWithCovarianceStamped
+from geometry_msgs.msg import PolygonStamped, PoseWithCovarianceStamped, TransformStamped, TwistWithCovarianceStamped
+from hri_msgs.msg import IdsList, NormalizedRegionOfInterest2D
 from nav_msgs.msg import Odometry
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from tf2_msgs.msg import TFMessage
+from vision_msgs.msg import Detection2DArray, Detection3DArray
 from visualization_msgs.msg import MarkerArray
 
 from human_tracker.io.images import stamp_ns
@@ -34,9 +37,14 @@ class PoseCollector(Node):
     It also keeps the latest ``/diagnostics`` values of every node, by status name, every
     ``status`` message in order (its state and values), and with ``markers`` the ``markers``
     arrays by stamp (a subscriber makes the tracker publish them).
+
+    With ``standard`` it reads the standard outputs as their own consumers do: ``/tf``,
+    ``detections`` and ``detections_3d`` by stamp, and REP-155's faces as a ROS4HRI client: every
+    ``/humans/faces/tracked`` list in order, and each listed id's ``roi`` subscribed when the id
+    appears and unsubscribed when it leaves.
     """
 
-    def __init__(self, namespace: str = '', *, markers: bool = False) -> None:
+    def __init__(self, namespace: str = '', *, markers: bool = False, standard: bool = False) -> None:
         super().__init__('pose_collector', namespace=namespace)
         self.poses: dict[int, PoseWithCovarianceStamped] = {}
         self.contours: dict[int, np.ndarray] = {}
@@ -54,6 +62,37 @@ class PoseCollector(Node):
         self.markers: dict[int, MarkerArray] = {}
         if markers:
             self.create_subscription(MarkerArray, 'markers', self._on_markers, _KEEP_ALL)
+        self.transforms: dict[int, list[TransformStamped]] = {}
+        self.detections: dict[int, Detection2DArray] = {}
+        self.detections_3d: dict[int, Detection3DArray] = {}
+        self.tracked: list[IdsList] = []
+        self.regions: dict[str, dict[int, NormalizedRegionOfInterest2D]] = {}
+        self._region_subscriptions: dict[str, object] = {}
+        if standard:
+            self.create_subscription(TFMessage, '/tf', self._on_tf, _KEEP_ALL)
+            self.create_subscription(Detection2DArray, 'detections', self._keep(self.detections), _KEEP_ALL)
+            self.create_subscription(Detection3DArray, 'detections_3d', self._keep(self.detections_3d), _KEEP_ALL)
+            self.create_subscription(IdsList, '/humans/faces/tracked', self._on_tracked, _LATCHED)
+
+    @staticmethod
+    def _keep(store: dict) -> object:
+        return lambda msg: store.__setitem__(stamp_ns(msg.header), msg)
+
+    def _on_tf(self, msg: TFMessage) -> None:
+        for transform in msg.transforms:
+            self.transforms.setdefault(stamp_ns(transform.header), []).append(transform)
+
+    def _on_tracked(self, msg: IdsList) -> None:
+        self.tracked.append(msg)
+        for ident in set(self._region_subscriptions) - set(msg.ids):
+            self.destroy_subscription(self._region_subscriptions.pop(ident))
+        for ident in msg.ids:
+            if ident not in self._region_subscriptions:
+                on_region = self._keep(self.regions.setdefault(ident, {}))
+                topic = f'/humans/faces/{ident}/roi'
+                self._region_subscriptions[ident] = self.create_subscription(
+                    NormalizedRegionOfInterest2D, topic, on_region, _LATCHED
+                )
 
     def _on_pose(self, msg: PoseWithCovarianceStamped) -> None:
         self.poses[stamp_ns(msg.header)] = msg

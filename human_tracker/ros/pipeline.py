@@ -13,6 +13,7 @@ import sys
 from typing import Any
 
 import numpy as np
+from rclpy.lifecycle import LifecycleState, TransitionCallbackReturn
 from rclpy.node import Node
 
 from human_tracker.ros.background_node import BackgroundNode
@@ -44,6 +45,11 @@ class CameraSubscriber(ImageStage):
         for stage in (self.motion_stage, self.skin_stage, self.tracker):
             if stage is not None:
                 stage.warm_up()
+
+    def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        # The pipeline's input is managed for the pipeline: its tracker stops with it.
+        self.tracker.say_nothing_tracked()
+        return super().on_deactivate(state)
 
     def handle_frame(self, image: np.ndarray, header: Any, **cues: Any) -> object:
         mask = None if self.motion_stage is None else self.motion_stage.process_frame(image, header)

@@ -22,6 +22,11 @@ image's centre (:func:`~human_tracker.vision.people.primary_target`), and
 ``targets`` (nav_msgs/Odometry, one message per tracked target per frame) gives every target:
 ``child_frame_id`` ``person_<person>/<kind>_<id>``, the pose and its covariance in the image's
 optical frame (``header``); the twist is not estimated per target (unknown covariance).
+
+Every TRACKING target is also on what a robot's other software reads
+(:mod:`~human_tracker.ros.standard_outputs`): a TF frame on ``/tf``, ROS4HRI's
+``/humans/faces/tracked`` and ``/humans/faces/<id>/roi`` for heads, and vision_msgs'
+``detections`` and ``detections_3d``.
 """
 
 from __future__ import annotations
@@ -34,7 +39,9 @@ from functools import partial
 from typing import Any
 
 import numpy as np
+from rclpy.lifecycle import LifecycleState, TransitionCallbackReturn
 from sensor_msgs.msg import RegionOfInterest
+from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 
 from human_tracker.ros.common import RESULT_QOS
@@ -322,6 +329,21 @@ class TrackerNode(ImageStage):
         response.success = True
         response.message = 'WAITING for motion, or a box on init_roi'
         return response
+
+    def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self.say_nothing_tracked()
+        return super().on_deactivate(state)
+
+    def destroy_node(self) -> None:
+        if not self.describing:
+            with contextlib.suppress(Exception):  # the context may already be shut down: nothing can be said
+                self.say_nothing_tracked()
+        super().destroy_node()
+
+    def say_nothing_tracked(self) -> None:
+        """No frame will be tracked for a while (deactivated, shutting down): an empty list of
+        faces, now, for the consumers of the standard outputs."""
+        self.outputs.standard.clear(Header(stamp=self.get_clock().now().to_msg()))
 
     def diagnostics_state(self) -> tuple[str, dict[str, Any]]:
         extra: dict[str, Any] = {

@@ -1,5 +1,6 @@
 """What the tracker node publishes on each frame (:class:`TrackerOutputs`): the primary target's
-metric pose and its covariance, its velocity and contour, every target on ``targets``, RViz
+metric pose and its covariance, its velocity and contour, every target on ``targets`` and on
+the standard outputs (TF, REP-155, vision_msgs: :mod:`~human_tracker.ros.standard_outputs`), RViz
 markers and the debug image (these two only while subscribed).
 
 Poses are in the image's optical frame (metres): the target's distance from its scale and
@@ -29,6 +30,7 @@ from human_tracker.drawing import annotate, draw_target
 from human_tracker.ros.common import LATCHED_QOS, RESULT_QOS, node_status
 from human_tracker.ros.image_conversion import array_to_image
 from human_tracker.ros.markers import cleared_markers, target_markers
+from human_tracker.ros.standard_outputs import PublishedTarget, StandardOutputs
 from human_tracker.ros.tracker_parameters import SURFACE_TO_CENTRE, TARGET_WIDTHS
 from human_tracker.vision.camera import metric_positions, position_covariance, undistort_pixels
 from human_tracker.vision.depth import region_depth
@@ -217,6 +219,14 @@ class TrackerOutputs:
         self.debug_pub = node.create_publisher(Image, 'debug_image', RESULT_QOS)
         self.markers_pub = node.create_publisher(MarkerArray, 'markers', RESULT_QOS)
         self.targets_pub = node.create_publisher(Odometry, 'targets', RESULT_QOS) if len(node.kinds) > 1 else None
+        settings = node.settings
+        self.standard = StandardOutputs(
+            node,
+            tf=settings.publish_tf,
+            faces=settings.publish_faces,
+            frame_prefix=settings.frame_prefix,
+            confirm_frames=settings.face_confirm_frames,
+        )
         self.markers_shown = False
         self.last_distance: float | None = None
         self.frames_without_depth_reading = 0
@@ -243,8 +253,10 @@ class TrackerOutputs:
         pose = self._publish_primary(tracker, result, header, shape, interval, depth) if result.tracking else None
         if pose is None:
             self.last_distance = None
+        poses = self._target_poses(outcomes, primary, shape, depth, pose)
         if self.targets_pub is not None:
-            self._publish_targets(outcomes, primary, header, shape, depth, pose)
+            self._publish_targets(poses, header)
+        self.standard.publish(header, shape, [self._published(outcome, found) for outcome, found in poses])
         if self.markers_pub.get_subscription_count() > 0:
             self._publish_markers(result, header, shape)
         if self.debug_pub.get_subscription_count() > 0:
@@ -263,10 +275,16 @@ class TrackerOutputs:
         primary kind's from its parameters, which may change at run time)."""
         node = self.node
         lens = node.lens(shape[1], shape[0], node.settings.image_rectified)
-        primary = kind == node.kind
-        width = node.get_parameter('target_width').value if primary else TARGET_WIDTHS[kind]
-        surface = node.get_parameter('surface_to_centre').value if primary else SURFACE_TO_CENTRE[kind]
+        width, surface = self._physical(kind)
         return metric_pose(tracker, estimate, shape, lens, width, surface, depth, node.settings.fit_residual_gain)
+
+    def _physical(self, kind: str) -> tuple[float, float]:
+        """The width of a target of ``kind`` and the depth from its surface to its centre, metres
+        (the primary kind's from its parameters, which may change at run time)."""
+        node = self.node
+        if kind == node.kind:
+            return node.get_parameter('target_width').value, node.get_parameter('surface_to_centre').value
+        return TARGET_WIDTHS[kind], SURFACE_TO_CENTRE[kind]
 
     def _publish_primary(
         self,
@@ -296,29 +314,53 @@ class TrackerOutputs:
         self.contour_pub.publish(contour_message(header, estimate.contour))
         return found.pose
 
-    def _publish_targets(
+    def _target_poses(
         self,
         outcomes: list[TrackedTarget],
         primary: TrackedTarget,
-        header: Any,
         shape: tuple[int, ...],
         depth: np.ndarray | None,
         primary_pose: PoseWithCovariance | None,
-    ) -> None:
-        """One Odometry on ``targets`` per target TRACKING on this frame, named by its person, kind
-        and id; the ``primary`` target's pose is the one ``pose`` got (``primary_pose``)."""
+    ) -> list[tuple[TrackedTarget, PoseWithCovariance]]:
+        """Each target TRACKING on this frame with its metric pose; the ``primary`` target's is the
+        one ``pose`` got (``primary_pose``)."""
+        poses = []
         for outcome in outcomes:
             if not outcome.result.tracking:
                 continue
-            odometry = Odometry(header=header, child_frame_id=f'person_{outcome.person}/{outcome.kind}_{outcome.id}')
             if outcome is primary:
                 assert primary_pose is not None  # published on pose: the primary target is TRACKING
-                odometry.pose = primary_pose
+                poses.append((outcome, primary_pose))
             else:
                 tracker = self.node.people.slot(outcome.name).tracker
-                odometry.pose = self._metric_pose(tracker, outcome.result.estimate, shape, depth, outcome.kind).pose
+                found = self._metric_pose(tracker, outcome.result.estimate, shape, depth, outcome.kind)
+                poses.append((outcome, found.pose))
+        return poses
+
+    def _publish_targets(self, poses: list[tuple[TrackedTarget, PoseWithCovariance]], header: Any) -> None:
+        """One Odometry on ``targets`` per TRACKING target, named by its person, kind and id."""
+        for outcome, pose in poses:
+            odometry = Odometry(header=header, child_frame_id=f'person_{outcome.person}/{outcome.kind}_{outcome.id}')
+            odometry.pose = pose
             odometry.twist.covariance = (np.eye(6) * UNKNOWN_VARIANCE).reshape(-1).tolist()
             self.targets_pub.publish(odometry)
+
+    def _published(self, outcome: TrackedTarget, pose: PoseWithCovariance) -> PublishedTarget:
+        """A TRACKING target as the standard outputs take it: its box, pose and physical size."""
+        estimate = outcome.result.estimate
+        assert estimate is not None
+        width, surface = self._physical(outcome.kind)
+        box = tuple(float(v) for v in estimate.box)
+        return PublishedTarget(
+            id=outcome.id,
+            kind=outcome.kind,
+            box=box,
+            confidence=float(estimate.confidence),
+            pose=pose,
+            theta=float(estimate.state[3]),
+            facing=outcome.result.facing,
+            size=(width, width * box[3] / box[2], 2.0 * surface),
+        )
 
     def _publish_markers(self, result: TargetResult, header: Any, shape: tuple[int, ...]) -> None:
         """The target's contour and label for RViz while the filter has an estimate; cleared once when it has none."""

@@ -206,6 +206,10 @@ class TrackerSettings:
     image_rectified: bool
     max_pending: int
     status_period: float
+    publish_tf: bool
+    publish_faces: bool
+    frame_prefix: str
+    face_confirm_frames: int
 
 
 def declare_settings(node: Any) -> TrackerSettings:
@@ -349,6 +353,34 @@ def declare_settings(node: Any) -> TrackerSettings:
         low=0.0,
         high=1.0,
     )
+    publish_tf = declare(
+        node,
+        'publish_tf',
+        True,
+        "A TF frame per TRACKING target on /tf (face_<id>, hand_<id>), child of the image's frame_id.",
+        read_only=True,
+    )
+    frame_prefix = declare(
+        node, 'frame_prefix', '', "Put before each TF frame's name (face_<id>, hand_<id>).", read_only=True
+    )
+    publish_faces = declare(
+        node,
+        'publish_faces',
+        True,
+        'ROS4HRI (REP-155) faces: /humans/faces/tracked and /humans/faces/<id>/roi (false: another node '
+        'publishes them).',
+        read_only=True,
+    )
+    face_confirm_frames = declare(
+        node,
+        'face_confirm_frames',
+        3,
+        'Frames a head is TRACKING in a row before its face id is published on /humans/faces: a false start '
+        'shorter than that never reaches a consumer.',
+        low=1,
+        high=1000,
+        read_only=True,
+    )
     return TrackerSettings(
         target=target,
         hands=hands,
@@ -365,6 +397,10 @@ def declare_settings(node: Any) -> TrackerSettings:
         image_rectified=image_rectified,
         max_pending=max_pending,
         status_period=status_period,
+        publish_tf=publish_tf,
+        publish_faces=publish_faces,
+        frame_prefix=frame_prefix,
+        face_confirm_frames=face_confirm_frames,
     )
 
 

@@ -1,0 +1,243 @@
+"""What a robot's other software already reads, for every TRACKING target of a frame
+(:class:`StandardOutputs`):
+
+- **TF** (``/tf``, tf2_msgs/TFMessage, what tf2_ros's broadcaster sends): a frame per target,
+  child of the image's ``frame_id`` (its optical frame), named ``face_<id>`` for a head (REP-155)
+  and ``hand_<id>`` for a hand, behind an optional prefix. A face frame follows REP-155: x out of
+  the face, y to the person's left, z up; a hand frame is the optical frame turned by the
+  silhouette's angle θ, as ``pose``.
+- **ROS4HRI faces** (REP-155): ``/humans/faces/tracked`` (hri_msgs/IdsList) on every frame,
+  and ``/humans/faces/<id>/roi`` (hri_msgs/NormalizedRegionOfInterest2D) per face; an id is
+  published once its head has been TRACKING ``confirm_frames`` frames in a row, and leaves the
+  list on the first frame it is not.
+- **vision_msgs**: ``detections`` (Detection2DArray: box, class ``head`` / ``hand``, score the
+  confidence, id) and ``detections_3d`` (Detection3DArray: the metric pose and its covariance,
+  the target's physical size) on every frame, empty when nothing is TRACKING.
+
+Every id is the track's (:attr:`~human_tracker.vision.outcomes.TrackedTarget.id`), written as
+:func:`target_name` does: ``f00003`` for a head, ``h00004`` for a hand.
+"""
+
+from __future__ import annotations
+
+from typing import Any, NamedTuple
+
+import numpy as np
+from geometry_msgs.msg import PoseWithCovariance, Quaternion, TransformStamped
+from hri_msgs.msg import IdsList, NormalizedRegionOfInterest2D
+from std_msgs.msg import Header
+from tf2_msgs.msg import TFMessage
+from vision_msgs.msg import (
+    Detection2D,
+    Detection2DArray,
+    Detection3D,
+    Detection3DArray,
+    ObjectHypothesis,
+    ObjectHypothesisWithPose,
+)
+
+from human_tracker.ros.common import LATCHED_QOS, RESULT_QOS
+from human_tracker.vision.facing import Facing
+
+__all__ = [
+    'FACES_TOPIC',
+    'PublishedTarget',
+    'StandardOutputs',
+    'detection_2d',
+    'detection_3d',
+    'face_orientation',
+    'frame_name',
+    'normalised_region',
+    'target_name',
+]
+
+FACES_TOPIC = '/humans/faces'
+"""REP-155's namespace of faces: ``tracked`` and ``<id>/roi`` under it."""
+
+_ID_LETTER = {'head': 'f', 'hand': 'h'}
+_FRAME_WORD = {'head': 'face', 'hand': 'hand'}
+
+# A head turned by ψ about the vertical (the optical y axis) from facing the camera.
+_YAW = {Facing.TOWARD: 0.0, Facing.AWAY: np.pi}
+
+# REP-155's face frame of a face looking into the camera, in optical axes (x right, y down,
+# z forward): its x (out of the face) is -z, its y (the person's left, the image's right) is
+# +x, its z (up) is -y. As a quaternion (x, y, z, w).
+_FACING_CAMERA = (0.5, 0.5, -0.5, 0.5)
+
+
+def _turn(a: tuple[float, ...], b: tuple[float, ...]) -> tuple[float, ...]:
+    """The rotation ``b`` then ``a``: the Hamilton product of quaternions (x, y, z, w).
+    Written out: scipy's rotations cost a third of a second to import, at every node's start."""
+    ax, ay, az, aw = a
+    bx, by, bz, bw = b
+    return (
+        aw * bx + ax * bw + ay * bz - az * by,
+        aw * by - ax * bz + ay * bw + az * bx,
+        aw * bz + ax * by - ay * bx + az * bw,
+        aw * bw - ax * bx - ay * by - az * bz,
+    )
+
+
+class PublishedTarget(NamedTuple):
+    """One TRACKING target as the standard outputs publish it.
+
+    Attributes:
+        id: The track's id (from 1).
+        kind: ``head`` or ``hand``.
+        box: Its box (x, y, w, h), the image's pixels.
+        confidence: Its estimate's confidence, 0-1.
+        pose: Its metric pose and covariance in the optical frame
+            (:func:`~human_tracker.ros.tracker_outputs.metric_pose`).
+        theta: The silhouette's angle θ about the optical axis, radians.
+        facing: Where a head faces; None for a hand.
+        size: Its physical width, height and depth, metres.
+    """
+
+    id: int
+    kind: str
+    box: tuple[float, float, float, float]
+    confidence: float
+    pose: PoseWithCovariance
+    theta: float
+    facing: Facing | None
+    size: tuple[float, float, float]
+
+
+def target_name(kind: str, ident: int) -> str:
+    """The id string of track ``ident`` of ``kind``: a letter and five digits (``f00003``), as
+    REP-155 asks of an id (it starts with a letter)."""
+    return f'{_ID_LETTER[kind]}{ident:05d}'
+
+
+def frame_name(kind: str, ident: int, prefix: str = '') -> str:
+    """The TF frame of track ``ident``: ``<prefix>face_<id>`` for a head, ``<prefix>hand_<id>`` for a hand."""
+    return f'{prefix}{_FRAME_WORD[kind]}_{target_name(kind, ident)}'
+
+
+def face_orientation(theta: float, facing: Facing | None) -> Quaternion:
+    """The orientation in the optical frame of REP-155's face frame of a head tilted by ``theta``
+    (radians, about the optical axis, as ``pose``) and turned as ``facing`` says: toward the
+    camera, or away (turned by π about the vertical). ``side`` does not say to which side, and
+    ``unknown`` nothing: both are given as toward."""
+    yaw = _YAW.get(facing, 0.0)
+    tilt = (0.0, 0.0, np.sin(theta / 2.0), np.cos(theta / 2.0))
+    turn = (0.0, np.sin(yaw / 2.0), 0.0, np.cos(yaw / 2.0))
+    x, y, z, w = _turn(tilt, _turn(turn, _FACING_CAMERA))
+    return Quaternion(x=float(x), y=float(y), z=float(z), w=float(w))
+
+
+def normalised_region(
+    header: Any, box: tuple[float, float, float, float], shape: tuple[int, ...], confidence: float
+) -> NormalizedRegionOfInterest2D:
+    """``box`` (x, y, w, h, pixels of an image of ``shape``) as REP-155's region: its corners in
+    [0, 1] of the image's width and height (clipped to the image), and ``confidence``."""
+    height, width = shape[:2]
+    x, y, w, h = box
+    return NormalizedRegionOfInterest2D(
+        header=header,
+        xmin=float(np.clip(x / width, 0.0, 1.0)),
+        ymin=float(np.clip(y / height, 0.0, 1.0)),
+        xmax=float(np.clip((x + w) / width, 0.0, 1.0)),
+        ymax=float(np.clip((y + h) / height, 0.0, 1.0)),
+        c=float(confidence),
+    )
+
+
+def _transform(header: Any, child: str, target: PublishedTarget) -> TransformStamped:
+    transform = TransformStamped(header=header, child_frame_id=child)
+    position = target.pose.pose.position
+    transform.transform.translation.x, transform.transform.translation.y = position.x, position.y
+    transform.transform.translation.z = position.z
+    if target.kind == 'head':
+        transform.transform.rotation = face_orientation(target.theta, target.facing)
+    else:
+        transform.transform.rotation = target.pose.pose.orientation
+    return transform
+
+
+def _hypothesis(target: PublishedTarget, pose: PoseWithCovariance | None = None) -> ObjectHypothesisWithPose:
+    found = ObjectHypothesisWithPose(hypothesis=ObjectHypothesis(class_id=target.kind, score=target.confidence))
+    if pose is not None:
+        found.pose = pose
+    return found
+
+
+def detection_2d(header: Any, target: PublishedTarget) -> Detection2D:
+    """The target's axis-aligned box (pixels, θ of the box 0) with its class and score."""
+    detection = Detection2D(header=header, id=target_name(target.kind, target.id), results=[_hypothesis(target)])
+    x, y, w, h = target.box
+    detection.bbox.center.position.x, detection.bbox.center.position.y = x + w / 2.0, y + h / 2.0
+    detection.bbox.size_x, detection.bbox.size_y = float(w), float(h)
+    return detection
+
+
+def detection_3d(header: Any, target: PublishedTarget) -> Detection3D:
+    """The target's metric pose (with covariance) and physical size."""
+    detection = Detection3D(
+        header=header, id=target_name(target.kind, target.id), results=[_hypothesis(target, target.pose)]
+    )
+    detection.bbox.center = target.pose.pose
+    detection.bbox.size.x, detection.bbox.size.y, detection.bbox.size.z = target.size
+    return detection
+
+
+class StandardOutputs:
+    """The TF, REP-155 and vision_msgs publishers of a tracker node, and the faces' ids between frames.
+
+    Args:
+        node: The node that publishes.
+        tf: Publish the targets' frames on ``/tf``.
+        faces: Publish REP-155's ``/humans/faces`` topics.
+        frame_prefix: Put before every TF child frame's name.
+        confirm_frames: Frames a head is TRACKING in a row before its face id is published.
+    """
+
+    def __init__(self, node: Any, *, tf: bool, faces: bool, frame_prefix: str, confirm_frames: int) -> None:
+        self.node = node
+        self.frame_prefix = frame_prefix
+        self.confirm_frames = confirm_frames
+        self.tf_pub = node.create_publisher(TFMessage, '/tf', RESULT_QOS) if tf else None
+        # Latched: a client that subscribes once it sees an id gets that face's region at once.
+        self.tracked_pub = node.create_publisher(IdsList, f'{FACES_TOPIC}/tracked', LATCHED_QOS) if faces else None
+        self.detections_pub = node.create_publisher(Detection2DArray, 'detections', RESULT_QOS)
+        self.detections_3d_pub = node.create_publisher(Detection3DArray, 'detections_3d', RESULT_QOS)
+        self.frames_tracking: dict[int, int] = {}  # per head's id: frames TRACKING in a row
+        self.region_pubs: dict[str, Any] = {}  # per published face id: its roi publisher
+
+    def publish(self, header: Any, shape: tuple[int, ...], targets: list[PublishedTarget]) -> None:
+        """Every output of one frame whose TRACKING targets are ``targets`` (image of ``shape``)."""
+        if self.tf_pub is not None and targets:
+            transforms = [_transform(header, frame_name(t.kind, t.id, self.frame_prefix), t) for t in targets]
+            self.tf_pub.publish(TFMessage(transforms=transforms))
+        flat = Detection2DArray(header=header, detections=[detection_2d(header, t) for t in targets])
+        self.detections_pub.publish(flat)
+        metric = Detection3DArray(header=header, detections=[detection_3d(header, t) for t in targets])
+        self.detections_3d_pub.publish(metric)
+        if self.tracked_pub is not None:
+            self._publish_faces(header, shape, [t for t in targets if t.kind == 'head'])
+
+    def _publish_faces(self, header: Any, shape: tuple[int, ...], heads: list[PublishedTarget]) -> None:
+        self.frames_tracking = {h.id: self.frames_tracking.get(h.id, 0) + 1 for h in heads}
+        confirmed = [h for h in heads if self.frames_tracking[h.id] >= self.confirm_frames]
+        names = [target_name('head', h.id) for h in confirmed]
+        self._keep_regions(names)
+        for name, head in zip(names, confirmed, strict=True):
+            if name not in self.region_pubs:
+                topic = f'{FACES_TOPIC}/{name}/roi'
+                self.region_pubs[name] = self.node.create_publisher(NormalizedRegionOfInterest2D, topic, LATCHED_QOS)
+            self.region_pubs[name].publish(normalised_region(header, head.box, shape, head.confidence))
+        self.tracked_pub.publish(IdsList(header=header, ids=names))
+
+    def _keep_regions(self, names: list[str]) -> None:
+        """Destroy the roi publisher of every face id not in ``names``."""
+        for name in set(self.region_pubs) - set(names):
+            self.node.destroy_publisher(self.region_pubs.pop(name))
+
+    def clear(self, header: Any | None = None) -> None:
+        """Nothing is tracked any more (the node is deactivated or shuts down): an empty ``tracked``
+        list, once, and every face's roi publisher destroyed."""
+        self.frames_tracking.clear()
+        self._keep_regions([])
+        if self.tracked_pub is not None:
+            self.tracked_pub.publish(IdsList(header=header or Header()))

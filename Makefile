@@ -32,9 +32,14 @@ $(STAMP): requirements.txt requirements-dev.txt setup.py $(INTERFACES)
 demo: $(STAMP)
 	$(PY) -m human_tracker.demo --bag bags/head_basic --out out/demo
 
+# Two workers, a test file each (the DDS tests wait on replays as much as they compute); then,
+# alone, the tests that bound a time another busy process would break (marker `timed`).
+IN_PARALLEL := -n 2 --dist loadfile -m 'not timed'
+
 test: $(STAMP)
 	$(PY) -m ruff check human_tracker test launch setup.py tools
-	$(PY) -m pytest -q test
+	$(PY) -m pytest -q $(IN_PARALLEL) test
+	$(PY) -m pytest -q -m timed test
 
 # The tests again with a Jazzy robot's numpy 1.26 and OpenCV 4.6 (rosdep's versions) in .venv-robot;
 # the colcon build is left to `make test`. numba keeps its compiled kernels apart for these versions.
@@ -50,7 +55,8 @@ $(ROBOT)/.installed-stamp: requirements.txt requirements-robot.txt setup.py $(IN
 
 test-robot-stack: $(ROBOT)/.installed-stamp
 	$(ROBOT)/bin/python -c "import cv2, numpy; print('robot stack: numpy', numpy.__version__, 'OpenCV', cv2.__version__)"
-	NUMBA_CACHE_DIR=$(CURDIR)/$(ROBOT)/numba-cache $(ROBOT)/bin/python -m pytest -q test --ignore=test/test_package_build.py
+	NUMBA_CACHE_DIR=$(CURDIR)/$(ROBOT)/numba-cache $(ROBOT)/bin/python -m pytest -q $(IN_PARALLEL) test --ignore=test/test_package_build.py
+	NUMBA_CACHE_DIR=$(CURDIR)/$(ROBOT)/numba-cache $(ROBOT)/bin/python -m pytest -q -m timed test --ignore=test/test_package_build.py
 
 lint: $(STAMP)
 	$(PY) -m ruff check human_tracker test launch setup.py tools

@@ -10,8 +10,10 @@ from pathlib import Path
 import pytest
 
 # Set before any rclpy import so every participant of this process joins the same private
-# domain; nodes started as child processes inherit it.
-os.environ['ROS_DOMAIN_ID'] = str(1 + os.getpid() % 200)
+# domain; nodes started as child processes inherit it. Under pytest-xdist (`make test` runs two
+# workers) the worker's number keeps the two workers' domains apart.
+_WORKER = int(os.environ.get('PYTEST_XDIST_WORKER', 'gw0').removeprefix('gw'))
+os.environ['ROS_DOMAIN_ID'] = str(1 + _WORKER % 2 + 2 * (os.getpid() % 100))
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 os.environ.setdefault('RMW_IMPLEMENTATION', 'rmw_fastrtps_cpp')
 
@@ -20,6 +22,14 @@ BAGS = REPO / 'bags'
 HEAD_BAG = BAGS / 'head_basic'
 REAL_DATA = REPO.parent / 'shared' / 'data' / 'real'
 DLIB_MISSING = 'the face detector (dlib) is a dependency of the head tracker: pip install dlib-bin (see README)'
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    config.addinivalue_line(
+        'markers',
+        'timed: bounds a time (first frames late, --help CPU) that another busy process would break: '
+        '`make test` runs these alone, after the rest',
+    )
 
 
 @pytest.fixture

@@ -96,6 +96,7 @@ def test_parameter_files_are_read_from_every_ros_arguments_block(tmp_path: Path)
         check_parameter_files(['x', '--ros-args', '--params-file', str(listed)])
 
 
+@pytest.mark.timed
 @pytest.mark.parametrize('name', sorted(EXECUTABLES))
 def test_help_prints_the_usage_and_exits_at_once(name: str, tmp_path: Path) -> None:
     """``--help`` (and ``--ros-args --help``) prints the parameters with defaults and topics,

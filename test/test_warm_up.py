@@ -79,6 +79,7 @@ def test_the_pipeline_s_warm_up_reaches_every_kernel_its_frames_need(bag: str, p
     assert json.loads(done.stdout.strip().splitlines()[-1]) == [], done.stdout
 
 
+@pytest.mark.timed
 def test_a_cold_person_pipeline_keeps_up_from_its_first_frame_after_ready(tmp_path: Path) -> None:
     """An empty kernel cache (a robot's first run): the pipeline says ready, then each of its
     first 30 frames (sent at 10 Hz, stamped when sent) comes back on debug_image within 200 ms."""

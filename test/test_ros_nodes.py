@@ -17,6 +17,7 @@ import rclpy
 from conftest import REPO
 from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState
+from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.parameter import Parameter, parameter_value_to_python
@@ -310,10 +311,9 @@ def test_a_person_pipeline_names_each_target_on_targets(tmp_path) -> None:
         centre = None
         for odometry in collector.targets.get(frame.stamp_ns, []):
             assert odometry.header.frame_id == CAMERA_FRAME
-            person, name = odometry.child_frame_id.split('/')
-            kind, ident = name.split('_')
-            assert person == 'person_1' and int(ident) > 0
-            ids[kind].add(int(ident))
+            person, kind, ident = _target_of(odometry)
+            assert person == 'person_1' and ident > 0
+            ids[kind].add(ident)
             if kind == 'hand':
                 centre = _pixel(odometry.pose.pose.position, k)
         hand.append(centre)
@@ -373,10 +373,9 @@ def test_two_people_over_dds_are_the_offline_commands(tmp_path) -> None:
         hand_in_view += hand_truth is not None
         hand_found = False
         for odometry in collector.targets.get(frame.stamp_ns, []):
-            person, name = odometry.child_frame_id.split('/')
-            kind, ident = name.split('_')
+            person, kind, ident = _target_of(odometry)
             centre = _pixel(odometry.pose.pose.position, k)
-            reported[-1][int(ident)] = (*centre, 0.0, 0.0)
+            reported[-1][ident] = (*centre, 0.0, 0.0)
             if kind == 'head':
                 seen[person] = centre
                 positions[person] = odometry.pose.pose.position
@@ -433,19 +432,25 @@ def test_two_people_over_dds_are_the_offline_commands(tmp_path) -> None:
     _check_standard_outputs(collector, frames, rows, (height, width))
 
 
-def _lookup(transforms: list[Any], target: str, source: str) -> tuple[np.ndarray, Rotation]:
-    """tf2's lookup on one stamp's transforms: ``source``'s origin and axes in ``target``, along
-    the chain of parents from ``source`` up to ``target``."""
+def _target_of(odometry: Odometry) -> tuple[str, str, int]:
+    """The person, kind and id a ``targets`` message names (``person_1/hand_2``)."""
+    person, name = odometry.child_frame_id.split('/')
+    kind, ident = name.split('_')
+    return person, kind, int(ident)
+
+
+def _lookup(transforms: list[Any], target: str, source: str) -> np.ndarray:
+    """tf2's lookup on one stamp's transforms: ``source``'s origin in ``target``, along the
+    chain of parents from ``source`` up to ``target``."""
     parent_of = {t.child_frame_id: t for t in transforms}
-    position, rotation = np.zeros(3), Rotation.identity()
+    position = np.zeros(3)
     frame = source
     while frame != target:
         link = parent_of[frame].transform  # KeyError: no chain to the target
         turn = Rotation.from_quat([link.rotation.x, link.rotation.y, link.rotation.z, link.rotation.w])
         position = turn.apply(position) + [link.translation.x, link.translation.y, link.translation.z]
-        rotation = turn * rotation
         frame = parent_of[frame].header.frame_id
-    return position, rotation
+    return position
 
 
 def _check_standard_outputs(
@@ -468,10 +473,7 @@ def _check_standard_outputs(
     regions = 0
     for index, frame in enumerate(frames):
         stamp = frame.stamp_ns
-        targets = {
-            (o.child_frame_id.split('/')[1].split('_')[0], int(o.child_frame_id.split('_')[-1])): o
-            for o in collector.targets.get(stamp, [])
-        }
+        targets = {_target_of(o)[1:]: o for o in collector.targets.get(stamp, [])}
         detections = {d.id: d for d in collector.detections[stamp].detections}
         metric = {d.id: d for d in collector.detections_3d[stamp].detections}
         assert set(detections) == set(metric) == {target_name(kind, ident) for kind, ident in targets}
@@ -481,7 +483,7 @@ def _check_standard_outputs(
             assert classes == {kind}
             expected = odometry.pose.pose.position
             assert _same_point(metric[name].results[0].pose.pose.position, expected)
-            position, _ = _lookup(collector.transforms[stamp], odometry.header.frame_id, frame_name(kind, ident))
+            position = _lookup(collector.transforms[stamp], odometry.header.frame_id, frame_name(kind, ident))
             np.testing.assert_allclose(position, (expected.x, expected.y, expected.z), atol=1e-3)
         heads = {ident for kind, ident in targets if kind == 'head'}
         heads_before.append(heads)

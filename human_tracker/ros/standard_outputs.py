@@ -25,7 +25,6 @@ from typing import Any, NamedTuple
 import numpy as np
 from geometry_msgs.msg import PoseWithCovariance, Quaternion, TransformStamped
 from hri_msgs.msg import IdsList, NormalizedRegionOfInterest2D
-from std_msgs.msg import Header
 from tf2_msgs.msg import TFMessage
 from vision_msgs.msg import (
     Detection2D,
@@ -234,10 +233,10 @@ class StandardOutputs:
         for name in set(self.region_pubs) - set(names):
             self.node.destroy_publisher(self.region_pubs.pop(name))
 
-    def clear(self, header: Any | None = None) -> None:
+    def clear(self, header: Any) -> None:
         """Nothing is tracked any more (the node is deactivated or shuts down): an empty ``tracked``
-        list, once, and every face's roi publisher destroyed."""
+        list under ``header``, once, and every face's roi publisher destroyed."""
         self.frames_tracking.clear()
         self._keep_regions([])
         if self.tracked_pub is not None:
-            self.tracked_pub.publish(IdsList(header=header or Header()))
+            self.tracked_pub.publish(IdsList(header=header))

@@ -43,13 +43,14 @@ test: $(STAMP)
 
 # The tests again with a Jazzy robot's numpy 1.26 and OpenCV 4.6 (rosdep's versions) in .venv-robot;
 # the colcon build is left to `make test`. numba keeps its compiled kernels apart for these versions.
+# The interfaces are .venv's build, copied (same Python and ROS wheels; numpy 1.26 loads them).
 ROBOT := .venv-robot
-$(ROBOT)/.installed-stamp: requirements.txt requirements-robot.txt setup.py $(INTERFACES)
+$(ROBOT)/.installed-stamp: requirements.txt requirements-robot.txt setup.py $(STAMP)
 	test -x $(ROBOT)/bin/python || $(PYTHON) -m venv $(ROBOT)
 	$(ROBOT)/bin/python -m pip install --quiet --upgrade "pip>=24"
 	grep -v -E '^(numpy|opencv-python-headless)==' requirements.txt > $(ROBOT)/requirements.txt
-	$(ROBOT)/bin/python -m pip install --quiet -r $(ROBOT)/requirements.txt -r requirements-robot.txt -r requirements-interfaces.txt
-	$(ROBOT)/bin/python tools/build_interfaces.py
+	$(ROBOT)/bin/python -m pip install --quiet -r $(ROBOT)/requirements.txt -r requirements-robot.txt
+	$(ROBOT)/bin/python tools/build_interfaces.py --copy-from $(VENV)
 	$(ROBOT)/bin/python -m pip install --quiet --no-deps --no-build-isolation --editable .
 	touch $@
 

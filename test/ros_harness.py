@@ -93,6 +93,11 @@ def replay_and_collect(
                 if done:
                     break
                 executor.spin_once(timeout_sec=0.05)
+            # The last frame's other messages (velocity, contour, standard outputs) are sent
+            # just after its pose: taken too before the nodes stop.
+            drained = time.monotonic() + 0.25
+            while time.monotonic() < drained:
+                executor.spin_once(timeout_sec=0.02)
             if diagnostics_of:
                 collector.spin_until_diagnostics(executor, diagnostics_of, 5.0)
         finally:

@@ -9,12 +9,17 @@ apt's packages are the real ones (``package.xml`` declares them).
 The ROS message wheels were built elsewhere and their exported CMake files name that machine's
 Python and numpy include folders; they are rewritten to this virtualenv's own once, before the
 build (``notes/ros-interfaces-from-pip.md``).
+
+``--copy-from OTHER_VENV`` installs what this tool built into another virtualenv of the same
+Python and ROS wheels instead of building again: the robot-stack virtualenv takes ``.venv``'s. The
+generated extensions are compiled against numpy 2's headers, which numpy 1.26 loads too.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import shutil
 import subprocess
 import sys
 import sysconfig
@@ -68,18 +73,52 @@ def build(source: Path, work: Path, prefix: Path, jobs: int) -> None:
     cmake([tool, '--install', str(work)])
 
 
+def installed_prefix(work: Path) -> Path:
+    """The install prefix a configured build folder was made for."""
+    for line in (work / 'CMakeCache.txt').read_text().splitlines():
+        if line.startswith('CMAKE_INSTALL_PREFIX:'):
+            return Path(line.split('=', 1)[1])
+    raise ValueError(f'{work}: no CMAKE_INSTALL_PREFIX')
+
+
+def copy_install(work: Path, prefix: Path) -> None:
+    """Copy the files a finished build in ``work`` installed into another prefix to ``prefix``,
+    with that prefix's path rewritten in the text files that name it (setup scripts, CMake
+    exports). Raises ``FileNotFoundError`` when the build or one of its files is missing."""
+    old = installed_prefix(work)
+    sources = [Path(line) for line in (work / 'install_manifest.txt').read_text().split()]
+    if missing := [source for source in sources if not source.is_file()]:
+        raise FileNotFoundError(f'{missing[0]} (and {len(missing) - 1} more) of {work} are gone')
+    for source in sources:
+        target = prefix / source.relative_to(old)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        data = source.read_bytes()
+        if bytes(old) in data and not data.startswith(b'\x7fELF'):
+            data = data.replace(bytes(old), bytes(prefix))
+        target.write_bytes(data)
+        shutil.copymode(source, target)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     parser.add_argument('--source', type=Path, default=Path(__file__).resolve().parents[1] / 'interfaces')
     parser.add_argument('--work', type=Path, default=Path('build/interfaces'), help='build folder (%(default)s)')
     parser.add_argument('--jobs', type=int, default=os.cpu_count() or 1)
+    parser.add_argument(
+        '--copy-from', type=Path, metavar='VENV', help='install the build made for this virtualenv instead of building'
+    )
     arguments = parser.parse_args(argv)
     prefix = Path(sys.prefix)
     if prefix == Path(sys.base_prefix):
         parser.error("run this with a virtualenv's Python: it installs into that virtualenv")
+    if arguments.copy_from is not None:
+        for package in PACKAGES:
+            copy_install(arguments.work.resolve() / arguments.copy_from.name / package, prefix)
+            print(f'installed {package} into {prefix} from the build for {arguments.copy_from}')
+        return 0
     localise_cmake_exports(prefix)
     for package in PACKAGES:
-        work = arguments.work.resolve() / Path(sys.prefix).name / package
+        work = arguments.work.resolve() / prefix.name / package
         build(arguments.source / package, work, prefix, arguments.jobs)
         print(f'built {package} into {prefix}')
     return 0

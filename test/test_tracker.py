@@ -59,6 +59,23 @@ def test_particle_count_changes_at_run_time() -> None:
     assert tracker.particles.shape == (40, 4)
 
 
+def test_an_adaptive_filter_keeps_fewer_particles_when_locked_on(head_bag) -> None:
+    """KLD-sampling between 100 and 500 particles: many at the start, where the cloud is spread,
+    fewer once the cloud has gathered on the head; the head is followed as with 500."""
+    tracker = ContourTracker(head_and_shoulders(), TrackerParameters(min_particles=100, kld_bin=(0.2, 0.2, 0.1, 0.2)))
+    counts, boxes, truth = [], [], []
+    for frame in list(read_frames(head_bag))[:40]:
+        if not tracker.initialised:
+            tracker.initialise_from_box(frame.ground_truth)
+        estimate = tracker.step(edge_map(cv2.cvtColor(message_to_bgr8(frame.message), cv2.COLOR_BGR2GRAY)))
+        counts.append(estimate.particle_count)
+        boxes.append(estimate.box)
+        truth.append(frame.ground_truth)
+    print(f'particles: {counts}')
+    assert counts[0] == 500 and 100 <= min(counts) and np.median(counts[10:]) < 400
+    assert summarise(boxes, truth)['precision_20px'] >= 0.9
+
+
 def test_fit_residual_is_the_rms_distance_to_the_edges_found() -> None:
     """A contour on a silhouette's own outline sits within a pixel or so of its edges, one
     shifted sideways by 4 px further off; with no edge at all the residual is δ. The position

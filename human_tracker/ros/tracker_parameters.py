@@ -36,7 +36,16 @@ TARGET_WIDTHS = {'head': 0.16, 'hand': 0.18}
 SURFACE_TO_CENTRE = {'head': 0.08, 'hand': 0.01}
 
 FILTER_PARAMETERS = (
-    ParameterSpec('num_particles', 'P, number of particles.', 1, 100000),
+    ParameterSpec('num_particles', 'P, number of particles: the most the filter uses.', 1, 100000),
+    ParameterSpec(
+        'min_particles',
+        'Fewest particles kept; below num_particles the count follows the posterior (KLD-sampling).',
+        1,
+        100000,
+    ),
+    ParameterSpec('kld_error', 'ε of KLD-sampling: the KL divergence allowed from the true posterior.', 1e-4, 0.99),
+    ParameterSpec('kld_confidence', '1-δ of KLD-sampling: the probability the divergence stays below ε.', 0.51, 0.9999),
+    ParameterSpec('kld_bin', "KLD-sampling's bin: x, y, s as fractions of the scale s, θ (rad)."),
     ParameterSpec(
         'search_halfwidth', 'δ (eq. 2): pixels searched each side of a contour point along its normal.', 0.5, 500.0
     ),

@@ -14,7 +14,16 @@ class TrackerParameters:
     """The filter's constants; names in words, the paper's symbol in brackets.
 
     Attributes:
-        num_particles: P, number of particles.
+        num_particles: P, number of particles: the most the filter uses.
+        min_particles: The fewest particles the filter keeps after a frame: between it and
+            ``num_particles``, the count is what the posterior's spread needs (KLD-sampling,
+            :func:`~human_tracker.vision.particle_filter.kld_resample`); ``num_particles`` or
+            more: always ``num_particles``.
+        kld_error: ε of KLD-sampling, the Kullback-Leibler divergence allowed between the
+            particles' posterior and the true one.
+        kld_confidence: 1-δ of KLD-sampling, the probability that the divergence stays below ε.
+        kld_bin: KLD-sampling's grid cell: x, y and s as fractions of the estimate's scale s,
+            θ in radians.
         search_halfwidth: δ in eq. 2, pixels searched each side of a point on its normal.
         miss_penalty: ρ in eqs. 2-3, cost of a point with no edge within δ.
         likelihood_gain: K in eq. 1.
@@ -54,6 +63,10 @@ class TrackerParameters:
     """
 
     num_particles: int = 500
+    min_particles: int = 500
+    kld_error: float = 0.05
+    kld_confidence: float = 0.99
+    kld_bin: tuple[float, float, float, float] = (0.1, 0.1, 0.05, 0.1)
     search_halfwidth: float = 12.0
     miss_penalty: float = 144.0
     likelihood_gain: float = 0.01
@@ -78,6 +91,13 @@ class TrackerParameters:
         """Raise ValueError naming the first parameter out of its range."""
         checks = [
             (self.num_particles >= 1, f'num_particles must be >= 1, got {self.num_particles}'),
+            (self.min_particles >= 1, f'min_particles must be >= 1, got {self.min_particles}'),
+            (0 < self.kld_error < 1, f'kld_error (ε) must be in (0, 1), got {self.kld_error}'),
+            (0.5 < self.kld_confidence < 1, f'kld_confidence (1-δ) must be in (0.5, 1), got {self.kld_confidence}'),
+            (
+                len(self.kld_bin) == 4 and min(self.kld_bin) > 0,
+                f'kld_bin must be 4 values > 0, got {self.kld_bin}',
+            ),
             (self.search_halfwidth > 0, f'search_halfwidth (δ) must be > 0, got {self.search_halfwidth}'),
             (self.miss_penalty >= 0, f'miss_penalty (ρ) must be >= 0, got {self.miss_penalty}'),
             (
@@ -117,6 +137,11 @@ class TrackerParameters:
         for ok, message in checks:
             if not ok:
                 raise ValueError(message)
+
+    @property
+    def adaptive(self) -> bool:
+        """Whether the particle count follows the posterior (KLD-sampling)."""
+        return self.min_particles < self.num_particles
 
     def scaled(self, factor: float) -> TrackerParameters:
         """The same filter on images resized by ``factor``: pixel lengths times ``factor``.

@@ -16,6 +16,7 @@ from human_tracker.vision.measurement import ContourFit, normalised_weights
 from human_tracker.vision.particle_filter import (
     effective_sample_size,
     gaussian_cloud,
+    kld_resample,
     systematic_resample,
     weighted_covariance,
     weighted_estimate,
@@ -65,6 +66,7 @@ class TrackEstimate:
             the weighted particles' spread plus ``position_error``² on each axis.
         shape: Name of the template's shape holding most of the weight (a hand: ``open_hand``
             or ``closed_hand``).
+        particle_count: Particles weighed on this frame.
     """
 
     state: np.ndarray
@@ -80,6 +82,7 @@ class TrackEstimate:
     position_error: float = 0.0
     centre_covariance: np.ndarray = field(default_factory=lambda: np.zeros((2, 2)))
     shape: str = ''
+    particle_count: int = 0
 
     def scaled(self, factor: float) -> TrackEstimate:
         """The same estimate on images resized by ``factor``: lengths (and s) times ``factor``."""
@@ -258,8 +261,9 @@ class ContourTracker:
         if self.particles is None or self.previous is None or self.labels is None:
             raise RuntimeError('ContourTracker.step called before initialise')
         params = self.parameters
-        if self.particles.shape[0] != params.num_particles:
-            self._resize(params.num_particles)
+        least = min(params.min_particles, params.num_particles)
+        if not least <= self.particles.shape[0] <= params.num_particles:  # the bounds changed
+            self._resize(min(max(self.particles.shape[0], least), params.num_particles))
         current, past = self.particles, self.previous
         self.particles, self.previous = predict(
             current, past, params.velocity_damping, np.asarray(params.process_noise), self.rng
@@ -309,8 +313,15 @@ class ContourTracker:
             box=box_from_state(state, self.template),
             contour=transform_points(shape.points, state),
             shape=shape.name,
+            particle_count=int(self.particles.shape[0]),
         )
-        keep = systematic_resample(weights, self.rng)
+        if params.adaptive:
+            bins = np.array(params.kld_bin) * np.array([state[2], state[2], state[2], 1.0])
+            bounds = (params.min_particles, params.num_particles)
+            error, confidence = params.kld_error, params.kld_confidence
+            keep = kld_resample(self.particles, weights, bins, bounds, error, confidence, self.rng)
+        else:
+            keep = systematic_resample(weights, self.rng)
         self.particles = self.particles[keep]
         self.previous = self.previous[keep]
         self.labels = self.labels[keep]

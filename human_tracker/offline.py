@@ -187,6 +187,7 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
     writer = None
     elapsed = busy = 0.0
     rejected: dict[str, int] = {}
+    particles: list[int] = []  # every estimate's particle count
     with (out / 'poses.csv').open('w', newline='') as handle:
         table = csv.writer(handle)
         table.writerow(POSE_COLUMNS)
@@ -233,6 +234,8 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
                 predicted[name].append(outcome.result.estimate.box if followed else None)
                 estimate = None if outcome is None else outcome.result.estimate
                 estimated[name].append(None if estimate is None else estimate.box)
+                if estimate is not None:
+                    particles.append(estimate.particle_count)
                 ids[name].append(outcome.id if outcome is not None else 0)
             for outcome in outcomes:
                 table.writerow(_pose_row(frame.index, frame.stamp_ns, outcome))
@@ -272,6 +275,8 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
         'fps': round(processed / elapsed, 2) if elapsed > 0 else None,
         'ms_per_frame': round(1000 * elapsed / max(processed, 1), 3),
         'cpu_ms_per_frame': round(1000 * busy / max(processed, 1), 3),
+        # The particle counts in use (KLD-sampling): least, median, most over every estimate.
+        'particles': [int(np.min(particles)), int(np.median(particles)), int(np.max(particles))] if particles else [],
     }
     if len(names) > 1:
         summary['targets'] = {name: _id_summary(ids[name]) for name in names}

@@ -23,11 +23,13 @@ from human_tracker.io.sequences import open_sequence, read_groundtruth, write_gr
 from human_tracker.offline import POSE_COLUMNS, TrackOptions, read_covariances, read_poses, track_sequence
 from human_tracker.vision.skin import SkinParameters
 from human_tracker.vision.target import parameters_for
+from human_tracker.vision.tracker import TrackerParameters
 
 
 def test_track_a_bag_writes_every_output(tmp_path, head_bag) -> None:
     summary = track_sequence(head_bag, tmp_path, TrackOptions(progress=False))
     assert summary['frames'] == 120 and summary['precision_20px'] >= 0.9
+    assert summary['particles'] == [500, 500, 500]  # least, median, most: a fixed count by default
     for name in (
         'poses.csv',
         'summary.json',
@@ -66,6 +68,17 @@ def test_track_at_full_size_from_the_command_line(tmp_path, head_bag) -> None:
     full_boxes, reduced_boxes = read_poses(out / 'poses.csv'), read_poses(tmp_path / 'reduced' / 'poses.csv')
     gaps = [np.hypot(a[0] - b[0], a[1] - b[1]) for a, b in zip(full_boxes, reduced_boxes, strict=True) if a and b]
     assert len(gaps) >= 100 and np.median(gaps) < 5
+
+
+def test_an_adaptive_particle_count_is_summarised(tmp_path, head_bag) -> None:
+    """With KLD-sampling between 100 and 500 particles the head is followed as well, on fewer
+    particles once the cloud gathers on it; the summary gives the least, median and most used."""
+    filter_parameters = TrackerParameters(min_particles=100, kld_bin=(0.2, 0.2, 0.1, 0.2))
+    options = TrackOptions(video=False, progress=False, filter_parameters=filter_parameters)
+    summary = track_sequence(head_bag, tmp_path, options)
+    least, median, most = summary['particles']
+    print(f'particles: {summary["particles"]}')
+    assert 100 <= least <= median < 300 and most == 500 and summary['precision_20px'] >= 0.9
 
 
 def test_import_a_frame_folder_then_track_and_eval_it(tmp_path, head_bag) -> None:

@@ -825,6 +825,7 @@ def test_a_managed_tracker_works_only_while_active(tmp_path, head_bag) -> None:
     bag = write_bag_for_test(tmp_path, frames)
     env = environment()
     args = node_arguments(COMPRESSED_CAMERA_TOPIC, True, frames[0].ground_truth) + ['-p', 'managed:=true']
+    args += ['-p', 'min_particles:=100', '-p', 'kld_bin:=[0.2, 0.2, 0.1, 0.2]']  # KLD-sampling's count reported
     tracker = NodeProcess('human_tracker.ros.tracker_node', args, env, tmp_path / 'tracker.log')
 
     def replay(name: str) -> None:
@@ -888,5 +889,6 @@ def test_a_managed_tracker_works_only_while_active(tmp_path, head_bag) -> None:
     assert inactive['frames_inactive'] == str(len(frames)) and inactive['frames_processed'] == '0'
     assert inactive['state'] == 'WAITING'
     assert poses == len(frames) and active['frames_processed'] == str(len(frames))
+    assert 100 <= int(active['particles']) < 500  # the cloud gathered on the head: fewer than the most
     assert deactivated['frames_inactive'] == str(2 * len(frames))
     assert deactivated['frames_processed'] == str(len(frames)) and len(collector.poses) == poses

@@ -347,7 +347,11 @@ class TrackerNode(ImageStage):
 
     def diagnostics_state(self) -> tuple[str, dict[str, Any]]:
         extra: dict[str, Any] = {
-            'particles': self.tracker.filter.parameters.num_particles,
+            # Each target's particle count now (KLD-sampling moves it between the bounds).
+            'particles': ', '.join(
+                str(t.filter.particles.shape[0] if t.filter.initialised else t.filter.parameters.num_particles)
+                for t in self.people.trackers
+            ),
             **{f'frames_without_{topic}': count for topic, count in self.inputs.matcher.unmatched.items()},
             'frames_never_received': self.inputs.matcher.never_received,
             'frames_motion_set_aside': self.frames_motion_set_aside,

@@ -61,7 +61,7 @@ def systematic_resample(weights: np.ndarray, rng: np.random.Generator, count: in
 
 
 def kld_sample_size(occupied_bins: np.ndarray | int, error_bound: float, confidence: float) -> np.ndarray:
-    """Fox's bound (KLD-sampling, IJRR 2003, eq. 13): how many samples keep the Kullback-Leibler
+    """Fox's bound (KLD-sampling, IJRR 2003): how many samples keep the Kullback-Leibler
     divergence between the sample-based and the true posterior below ``error_bound`` ε with
     probability ``confidence`` 1-δ, when they fall in ``occupied_bins`` k bins of the state space:
     n = (k-1)/(2ε) (1 - 2/(9(k-1)) + sqrt(2/(9(k-1))) z_{1-δ})³ (the Wilson-Hilferty

@@ -86,7 +86,7 @@ def copy_install(work: Path, prefix: Path) -> None:
     with that prefix's path rewritten in the text files that name it (setup scripts, CMake
     exports). Raises ``FileNotFoundError`` when the build or one of its files is missing."""
     old = installed_prefix(work)
-    sources = [Path(line) for line in (work / 'install_manifest.txt').read_text().split()]
+    sources = [Path(line) for line in (work / 'install_manifest.txt').read_text().splitlines() if line]
     if missing := [source for source in sources if not source.is_file()]:
         raise FileNotFoundError(f'{missing[0]} (and {len(missing) - 1} more) of {work} are gone')
     for source in sources:

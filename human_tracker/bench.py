@@ -41,6 +41,8 @@ import platform
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import cv2
@@ -276,6 +278,17 @@ def _acceptance(results: dict[str, object]) -> list[dict[str, object]]:
             check(name, stages['pipeline_cpu'], round(cpu['CSRT'] / 5, 3), at_most=True)
             name = 'hand pipeline, CPU of every thread (ms) <= 3 KCF'
             check(name, stages['hand_pipeline_cpu'], round(3 * cpu['KCF'], 3), at_most=True)
+            # Issue 75: cheaper than KCF, OpenCV's cheapest box tracker people use.
+            check('head pipeline (ms) <= KCF', stages['pipeline'], trackers['KCF'], at_most=True)
+            name = 'head pipeline, CPU of every thread (ms) <= KCF'
+            check(name, stages['pipeline_cpu'], cpu['KCF'], at_most=True)
+            check(
+                'hand pipeline (ms) <= 1.5 KCF', stages['hand_pipeline'], round(1.5 * trackers['KCF'], 3), at_most=True
+            )
+            if 'person_pipeline' in stages:
+                # Two hands: a harder bar than the issue's head and one hand.
+                name = 'person pipeline, head and two hands (ms) <= 2 KCF'
+                check(name, stages['person_pipeline'], round(2 * trackers['KCF'], 3), at_most=True)
         if 'person_pipeline' in stages:
             name = 'person pipeline, head and two hands (ms) <= 2.5 head pipeline'
             check(name, stages['person_pipeline'], round(2.5 * stages['pipeline'], 3), at_most=True)
@@ -336,8 +349,14 @@ def _acceptance(results: dict[str, object]) -> list[dict[str, object]]:
         if row['rate'] == 'full speed':
             continue
         layout = f'latency, {row["layout"]}, {row["rate"]}'
+        if row.get('busy_processes'):
+            layout += f', {row["busy_processes"]} busy processes'
         check(f'{layout}: poses received of {row["frames_sent"]} sent', row['poses_received'], row['frames_sent'])
-        if row['layout'] == 'separate':
+        if row.get('busy_processes'):
+            # Issue 75: beside busy processes, a frame waits at most 2 ms beyond its processing.
+            check(f'{layout}: median above processing (ms) <= 2', row['above_processing_ms'], 2.0, at_most=True)
+            check(f'{layout}: p95 (ms) < 33', row['latency_ms_p95'], 33.0, at_most=True)
+        elif row['layout'] == 'separate':
             check(f'{layout}: median (ms) <= 5', row['latency_ms_median'], 5.0, at_most=True)
             check(f'{layout}: p95 (ms) <= 10', row['latency_ms_p95'], 10.0, at_most=True)
         else:
@@ -366,6 +385,18 @@ def _facing_table(rows: list[dict[str, object]]) -> str:
     return _table([row for row in rows if 'facing_unknown' in row], [*columns, 'facing_unknown'])
 
 
+@contextmanager
+def busy_processes(count: int) -> Iterator[None]:
+    """``count`` CPU-bound Python processes running meanwhile, as other nodes on a robot's computer would be."""
+    busy = [subprocess.Popen([sys.executable, '-c', 'while True: pass']) for _ in range(count)]
+    try:
+        yield
+    finally:
+        for process in busy:
+            process.kill()
+            process.wait()
+
+
 def _thread_policy(sequence: Path, init: str | None, out: Path, runs: int = 3) -> list[dict[str, object]]:
     """Offline frames per second with 1 thread and with every core, alone and beside two busy processes.
 
@@ -373,10 +404,8 @@ def _thread_policy(sequence: Path, init: str | None, out: Path, runs: int = 3) -
     processes are CPU-bound Python loops, as other nodes on a robot's computer would be.
     """
     rows = []
-    busy_loop = [sys.executable, '-c', 'while True: pass']
     for load in (0, 2):
-        busy = [subprocess.Popen(busy_loop) for _ in range(load)]
-        try:
+        with busy_processes(load):
             for threads in (1, 0):
                 fps = []
                 for run in range(runs):
@@ -397,10 +426,6 @@ def _thread_policy(sequence: Path, init: str | None, out: Path, runs: int = 3) -
                     }
                 )
                 print(json.dumps(rows[-1]))
-        finally:
-            for process in busy:
-                process.kill()
-                process.wait()
     return rows
 
 
@@ -535,10 +560,10 @@ def main(argv: list[str] | None = None) -> int:
         columns += ['ms_per_frame', 'cpu_ms_per_frame']
         columns += ['runs', 'precision_20px_mean', 'precision_20px_min', 'precision_20px_max', 'confident_wrong_max']
         columns += ['falsely_lost_max']
-        columns += ['nees_mean', 'nees_within_95']
+        columns += ['nees_mean', 'nees_within_95', 'particles_least', 'particles_most']
         report += [
             '## accuracy (same frames, same first box; figures of the first run; precision and the worst'
-            ' confident-wrong share over all runs)\n',
+            ' confident-wrong share over all runs; particles: the fewest and most any run used on a frame)\n',
             _table(results['accuracy'], columns),
         ]
         report += [
@@ -593,16 +618,26 @@ def main(argv: list[str] | None = None) -> int:
         rclpy.init()
         rows = []
         try:
-            for layout in ('pipeline', 'separate'):
-                for rate in (30.0, None):
-                    rows.append(measure_latency(layout, rate, frames, box, options.out, env))
-                    print(json.dumps(rows[-1]))
+            # (layout, rate, busy processes beside it): a robot's computer runs other nodes.
+            for layout, rate, load in (
+                ('pipeline', 30.0, 0),
+                ('pipeline', None, 0),
+                ('pipeline', 30.0, 2),
+                ('separate', 30.0, 0),
+                ('separate', None, 0),
+            ):
+                with busy_processes(load):
+                    rows.append(
+                        {**measure_latency(layout, rate, frames, box, options.out, env), 'busy_processes': load}
+                    )
+                print(json.dumps(rows[-1]))
         finally:
             shutdown()
         results['latency'] = rows
         columns = [
             'layout',
             'rate',
+            'busy_processes',
             'frames_sent',
             'poses_received',
             'throughput_hz',

@@ -35,3 +35,12 @@ def test_a_row_with_covariances_gives_the_nees_over_every_run() -> None:
     runs = [(hit, 1.0, 1.0), ([hit[0], None], 1.0, 1.0)]
     row = _row('ours', runs, truth, covariances=[[np.eye(2), 0.1 * np.eye(2)], [np.eye(2), None]])
     assert row['nees_mean'] == round((2 + 20 + 2) / 3, 2) and row['nees_within_95'] == round(2 / 3, 3)
+
+
+def test_a_row_with_particle_counts_gives_the_fewest_and_most_of_any_run() -> None:
+    """Each run's [least, median, most] particles on a frame (KLD-sampling's range in use)."""
+    truth = [(0.0, 0.0, 10.0, 10.0)] * 2
+    runs = [(truth, 1.0, 1.0), (truth, 1.0, 1.0)]
+    row = _row('ours', runs, truth, particles=[[120, 200, 480], [100, 150, 500]])
+    assert (row['particles_least'], row['particles_most']) == (100, 500)
+    assert 'particles_least' not in _row('ours', runs, truth)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from conftest import REPO
@@ -55,6 +57,17 @@ def test_lengths_in_pixels_scale_with_the_image() -> None:
     skin = SkinParameters().scaled(0.5)
     assert (skin.cell_size, skin.min_cluster_pixels) == (4, 4)
     assert TrackerParameters().scaled(1.0) == TrackerParameters()
+
+
+def test_target_parameters_are_scaled_once_per_scale() -> None:
+    """A track asks for its parameters at its scale several times a frame: one object per
+    scale, and a copy with another value is scaled afresh."""
+    parameters = TargetParameters()
+    assert parameters.scaled(0.5) is parameters.scaled(0.5)
+    assert parameters.scaled(0.25).edge_blur_sigma == 0.375
+    changed = replace(parameters, edge_blur_sigma=3.0)
+    assert changed.scaled(0.5).edge_blur_sigma == 1.5 and parameters.scaled(0.5).edge_blur_sigma == 0.75
+    assert changed != parameters and replace(changed, edge_blur_sigma=1.5) == parameters
 
 
 def _run(working_width: int, mask_at_working_size: bool) -> tuple[dict, list]:

@@ -160,12 +160,14 @@ def _row(
     scored: list[Box | None],
     ids: list[list[int]] | None = None,
     covariances: list[list[np.ndarray | None]] | None = None,
+    particles: list[list[int]] | None = None,
 ) -> dict[str, object]:
     """The first run's scores and ms per frame (wall clock and CPU), the precision's mean, min and
     max over ``runs``, the largest confident-wrong share of any run; with each run's target
     ``ids``, the mean IDF1 and identity switches (:mod:`~human_tracker.evaluation.identity`);
     with each run's box-centre ``covariances``, the normalised estimation error squared over
-    every run's frames (its mean, 2 expected, and the share within the 95 % ellipse)."""
+    every run's frames (its mean, 2 expected, and the share within the 95 % ellipse); with each
+    run's ``particles`` ([least, median, most] per frame), the fewest and most of any run."""
     summaries = [summarise(boxes, scored) for boxes, *_ in runs]
     precisions = [summary['precision_20px'] for summary in summaries]
     consistency = {}
@@ -205,6 +207,11 @@ def _row(
         ),
         **consistency,
         **identity,
+        **(
+            {'particles_least': min(run[0] for run in particles), 'particles_most': max(run[-1] for run in particles)}
+            if particles
+            else {}
+        ),
     }
 
 
@@ -255,7 +262,7 @@ def compare_on_sequence(
         for name, start, parameters in variants:
             # The target scored: a person's bag is scored on its first track, the head's.
             kind = target if name == 'person' else kinds_of(target)[0]
-            ours, ids, covariances, head_ids, facings = [], [], [], [], []
+            ours, ids, covariances, head_ids, facings, particles = [], [], [], [], [], []
             for seed in SEEDS:
                 options = TrackOptions(
                     target='person' if name == 'person' else target,
@@ -271,6 +278,8 @@ def compare_on_sequence(
                 summary = track_sequence(folder, Path(scratch) / 'ours', options)
                 table = Path(scratch) / 'ours' / 'poses.csv'
                 ours.append((read_poses(table, kind), summary['ms_per_frame'], summary['cpu_ms_per_frame']))
+                if summary.get('particles'):
+                    particles.append(summary['particles'])
                 tracks = read_ids(table)
                 ids.append(tracks[kind])
                 if name == 'person' and kind != 'head':
@@ -279,7 +288,7 @@ def compare_on_sequence(
                 if labels.is_file():
                     facings.append(read_facing(table, kind, offset=first))
             cues = 'background + skin' if summary['skin'] else 'background cue'
-            row = _row(f'{name} ({cues}{"" if start else ", no box"})', ours, scored, ids, covariances)
+            row = _row(f'{name} ({cues}{"" if start else ", no box"})', ours, scored, ids, covariances, particles)
             if head_ids:
                 # A person's head beside the hand scored: how long it keeps one id, worst run.
                 row['head_one_id_min'] = round(min(one_id_share(run) for run in head_ids), 3)

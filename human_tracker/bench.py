@@ -130,10 +130,13 @@ def _handshake(camera: _Camera, executor: SingleThreadedExecutor, first: Image, 
     """Send ``first`` until its pose comes back, then forget it: the box is given for the first
     frame, and a node whose subscription has matched may still miss the first frames sent (one
     run's tracker received 216 of 240, started its box on a later frame than the box's, and
-    returned 48 poses)."""
+    returned 48 poses). It is sent again only after longer than the tracker's ``max_gap`` (1 s):
+    a frame the tracker did take would, re-sent sooner but reaching it after ``max_gap``
+    beside busy processes, mark its target lost, and on one frame sent again and again no
+    motion brings it back."""
     while True:
         stamp = camera.send(first)
-        wait_until = time.monotonic() + 0.5
+        wait_until = time.monotonic() + 3.0
         while stamp not in camera.latency_s and time.monotonic() < wait_until:
             executor.spin_once(timeout_sec=0.01)
         if stamp in camera.latency_s:
@@ -190,9 +193,8 @@ def measure_latency(
         diagnostics = collector.spin_until_diagnostics(executor, '/tracker_node', 5.0)
         # The frame's path: one node runs every stage in turn, or the mask's stage then the tracker.
         chain = ['/camera_subscriber'] if layout == 'pipeline' else ['/background_node', '/tracker_node']
-        processing = sum(
-            float(collector.spin_until_diagnostics(executor, name, 5.0).get('processing_ms', 'nan')) for name in chain
-        )
+        stages = [collector.spin_until_diagnostics(executor, name, 5.0) for name in chain]
+        processing = sum(float(values.get('processing_ms', 'nan')) for values in stages)
     finally:
         for node in nodes:
             node.stop()
@@ -213,6 +215,8 @@ def measure_latency(
         'processing_ms': round(processing, 2),
         'above_processing_ms': round(median - processing, 2),
         'executor': 'SingleThreadedExecutor',
+        # Frames the camera sent that never reached the first node (replaced in its queue of one).
+        'frames_dropped': stages[0].get('frames_dropped', '-'),
         'tracker_frames_received': diagnostics.get('frames_received', '-'),
         'tracker_frames_without_mask': diagnostics.get('frames_without_foreground', '-'),
         'tracker_frames_never_received': diagnostics.get('frames_never_received', '-'),
@@ -646,6 +650,7 @@ def main(argv: list[str] | None = None) -> int:
             'processing_ms',
             'above_processing_ms',
             'executor',
+            'frames_dropped',
             'tracker_frames_received',
             'tracker_frames_without_mask',
             'tracker_frames_never_received',

@@ -86,6 +86,7 @@ def test_every_listed_encoding_is_processed_and_a_bad_one_is_counted() -> None:
     assert stamps == list(range(1, len(IMAGE_ENCODINGS) + 1))  # one foreground per frame, in order
     assert stage.counters.processed == len(IMAGE_ENCODINGS)
     assert stage.counters.rejected == 1 and stage.counters.rejected_reasons == {'conversion': 1}
+    assert stage.counters.dropped == 0  # reliable, a queue as deep as the frames sent
 
 
 def test_compressed_jpeg_and_png_input() -> None:
@@ -194,3 +195,50 @@ def test_a_person_debug_image_draws_each_target_in_its_id_colour() -> None:
     print(f'hand {hand.id}, box {hand.result.estimate.box}: left side {side[::8].tolist()}')
     drawn = np.abs(side.astype(np.int64) - id_colour(hand.id)).max(axis=1) <= 40  # anti-aliased
     assert drawn.mean() > 0.9
+
+
+def test_frames_the_node_never_received_are_counted_as_dropped() -> None:
+    """Sensor-data QoS keeps the newest frame: frames published while the node is busy are
+    replaced in its queue of one. Each is counted (``frames_dropped``) from the gaps in the
+    publisher's sequence numbers, so received + dropped = sent."""
+    rclpy.init()
+    stage = BackgroundNode()  # best effort, depth 1: a robot's default
+    source = Node('camera')
+    publisher = source.create_publisher(Image, 'image', QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT))
+    executor = SingleThreadedExecutor()
+    executor.add_node(stage)
+    executor.add_node(source)
+    rng = np.random.default_rng(2)
+    frames = [array_to_image(rng.integers(0, 255, (48, 64), dtype=np.uint8), 'mono8') for _ in range(32)]
+    for index, msg in enumerate(frames, start=1):
+        msg.header.stamp.sec = index
+
+    def spin_until_received(count: int) -> None:
+        deadline = time.monotonic() + 20.0
+        while stage.counters.received < count and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+
+    try:
+        deadline = time.monotonic() + 20.0
+        while publisher.get_subscription_count() < 1 and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+        spin_until_received(0)
+        publisher.publish(frames[0])
+        spin_until_received(1)
+        for msg in frames[1:-1]:  # the node does not spin meanwhile: a busy node
+            publisher.publish(msg)
+            time.sleep(0.002)
+        spin_until_received(2)
+        for _ in range(10):
+            executor.spin_once(timeout_sec=0.02)
+        publisher.publish(frames[-1])  # the last one shows how many came before it
+        spin_until_received(stage.counters.received + 1)
+    finally:
+        executor.shutdown()
+        stage.destroy_node()
+        source.destroy_node()
+        rclpy.try_shutdown()
+    counters = stage.counters
+    print(f'{len(frames)} sent: {counters}')
+    assert counters.dropped > 0
+    assert counters.received + counters.dropped == len(frames)

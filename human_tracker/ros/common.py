@@ -33,6 +33,7 @@ __all__ = [
     'image_qos',
     'RESULT_QOS',
     'FrameCounters',
+    'PublisherSequence',
     'StageTimer',
     'diagnostic_status',
     'node_status',
@@ -169,6 +170,9 @@ class FrameCounters:
     """Where every input frame went: each one is processed, skipped or rejected.
 
     ``inactive`` counts the skipped frames that arrived while a managed node was not active.
+    ``dropped`` counts the frames the camera's publisher sent that never reached the node: a
+    newer frame replaced them in the subscription's queue (``qos_depth``) while the node was
+    busy, or they were lost on the way (:class:`PublisherSequence`).
     """
 
     received: int = 0
@@ -176,6 +180,7 @@ class FrameCounters:
     skipped: int = 0
     inactive: int = 0
     rejected: int = 0
+    dropped: int = 0
     rejected_reasons: dict[str, int] = field(default_factory=dict)
 
     def reject(self, reason: str) -> None:
@@ -191,7 +196,30 @@ class FrameCounters:
             'skipped': self.skipped,
             'inactive': self.inactive,
             'rejected': self.rejected,
+            'dropped': self.dropped,
         }
+
+
+@dataclass
+class PublisherSequence:
+    """Frames missed between two that arrived, from the publisher's sequence numbers (DDS numbers
+    each writer's samples 1, 2, 3, ...; rclpy gives the number with the message).
+
+    The numbers are one writer's, and a message does not say which writer sent it: with more than
+    one publisher matched nothing is counted. A number not above the last one (a new or restarted
+    publisher) starts the count again.
+    """
+
+    last: int | None = None
+
+    def missed(self, sequence: int | None, publishers: int) -> int:
+        """The frames sent between the last one and this one (``sequence``; None: unknown) that
+        never arrived, with ``publishers`` publishers matched."""
+        if sequence is None or publishers != 1:
+            self.last = None
+            return 0
+        last, self.last = self.last, sequence
+        return 0 if last is None or sequence <= last else sequence - last - 1
 
 
 @dataclass

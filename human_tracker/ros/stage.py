@@ -46,6 +46,7 @@ from human_tracker.ros.common import (
     LATCHED_QOS,
     RESULT_QOS,
     FrameCounters,
+    PublisherSequence,
     StageTimer,
     declare,
     diagnostic_status,
@@ -135,6 +136,7 @@ class ImageStage(LifecycleNode):
         super().__init__(name, **kwargs)
         self.active = False
         self.counters = FrameCounters()
+        self._sequence = PublisherSequence()
         self.timer_stats = StageTimer()
         self.last_stamp_ns = -1
         self.time_resets = 0
@@ -197,11 +199,13 @@ class ImageStage(LifecycleNode):
             qos = image_qos(self)
             # Raw (serialised) messages: on_wire_image reads them without copying the pixels.
             if transport == 'compressed':
-                on_compressed = partial(self.on_wire_image, 'sensor_msgs/msg/CompressedImage')
-                self.create_subscription(CompressedImage, 'image/compressed', on_compressed, qos, raw=True)
+                on_compressed = partial(self._on_sent_image, 'sensor_msgs/msg/CompressedImage')
+                self._image_input = self.create_subscription(
+                    CompressedImage, 'image/compressed', on_compressed, qos, raw=True
+                )
             else:
-                on_raw = partial(self.on_wire_image, 'sensor_msgs/msg/Image')
-                self.create_subscription(Image, 'image', on_raw, qos, raw=True)
+                on_raw = partial(self._on_sent_image, 'sensor_msgs/msg/Image')
+                self._image_input = self.create_subscription(Image, 'image', on_raw, qos, raw=True)
 
     def warm_up(self) -> None:
         """Compile and run the stage's kernels once on a small frame, so the first real frame is not late."""
@@ -305,6 +309,13 @@ class ImageStage(LifecycleNode):
     def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
         self.active = False
         return TransitionCallbackReturn.SUCCESS
+
+    def _on_sent_image(self, typename: str, data: bytes, info: dict[str, Any]) -> None:
+        """An image from the subscription, with its message info: the frames sent before it that
+        never arrived are counted as dropped, then it is read (:meth:`on_wire_image`)."""
+        sequence = info.get('publication_sequence_number')
+        self.counters.dropped += self._sequence.missed(sequence, self._image_input.get_publisher_count())
+        self.on_wire_image(typename, data)
 
     def on_wire_image(self, typename: str, data: bytes) -> None:
         """Read one serialised (CDR) image message of ``typename`` and process it (:meth:`on_image`).

@@ -405,7 +405,7 @@ def _thread_policy(sequence: Path, init: str | None, out: Path, runs: int = 3) -
     """Offline frames per second with 1 thread and with every core, alone and beside two busy processes.
 
     Each run is a fresh ``human_tracker track`` process (numba's cache warm); the busy
-    processes are CPU-bound Python loops, as other nodes on a robot's computer would be.
+    processes are :func:`busy_processes`.
     """
     rows = []
     for load in (0, 2):

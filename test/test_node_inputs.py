@@ -19,6 +19,7 @@ from sensor_msgs.msg import CompressedImage, Image
 from human_tracker.drawing import id_colour
 from human_tracker.io.bags import read_frames
 from human_tracker.ros.background_node import BackgroundNode
+from human_tracker.ros.common import PublisherSequence
 from human_tracker.ros.image_conversion import ENCODINGS, array_to_compressed, array_to_image, message_to_bgr8
 from human_tracker.ros.tracker_node import TrackerNode
 from human_tracker.vision.skin import SkinSegmenter, default_skin_model
@@ -242,3 +243,13 @@ def test_frames_the_node_never_received_are_counted_as_dropped() -> None:
     print(f'{len(frames)} sent: {counters}')
     assert counters.dropped > 0
     assert counters.received + counters.dropped == len(frames)
+
+
+def test_a_gap_in_one_publishers_sequence_numbers_counts_the_frames_missed() -> None:
+    """Gaps count while one publisher is matched; a number not above the last (a restarted
+    publisher), two publishers or no number start the count again without counting."""
+    sequence = PublisherSequence()
+    assert [sequence.missed(n, 1) for n in (1, 2, 5, 6)] == [0, 0, 2, 0]
+    assert sequence.missed(1, 1) == 0 and sequence.missed(4, 1) == 2  # restarted, then a gap
+    assert sequence.missed(9, 2) == 0 and sequence.missed(20, 1) == 0  # two publishers: unknown
+    assert sequence.missed(None, 1) == 0 and sequence.missed(30, 1) == 0

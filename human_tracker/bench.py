@@ -130,12 +130,13 @@ def _handshake(camera: _Camera, executor: SingleThreadedExecutor, first: Image, 
     """Send ``first`` until its pose comes back, then forget it: the box is given for the first
     frame, and a node whose subscription has matched may still miss the first frames sent (one
     run's tracker received 216 of 240, started its box on a later frame than the box's, and
-    returned 48 poses). It is sent again only after longer than the tracker's ``max_gap`` (1 s):
-    a frame the tracker did take would, re-sent sooner but reaching it after ``max_gap``
-    beside busy processes, mark its target lost, and on one frame sent again and again no
-    motion brings it back."""
+    returned 48 poses). It is sent again only after 3 s, longer than the tracker's ``max_gap``
+    (1 s)."""
     while True:
         stamp = camera.send(first)
+        # A frame the tracker did take, re-sent sooner but reaching it after max_gap (beside
+        # busy processes), would mark its target lost; on one frame sent again and again no
+        # motion brings it back.
         wait_until = time.monotonic() + 3.0
         while stamp not in camera.latency_s and time.monotonic() < wait_until:
             executor.spin_once(timeout_sec=0.01)

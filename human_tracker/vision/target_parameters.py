@@ -317,9 +317,9 @@ class FrameParameters:
 def _scaled_once(
     scaled: Callable[[TargetParameters, float], TargetParameters],
 ) -> Callable[[TargetParameters, float], TargetParameters]:
-    """``scaled(factor)`` computed once per factor and kept on the (frozen) instance: a track
-    asks for its parameters at its scale several times a frame, and a ``replace`` of every
-    field cost 0.5 ms a frame, as much as the filter's prediction."""
+    """``scaled(factor)`` computed once per factor and kept on the (frozen) instance: the same
+    object for every call at one factor (a track asks for its parameters at its scale several
+    times a frame)."""
 
     @wraps(scaled)
     def once(self: TargetParameters, factor: float) -> TargetParameters:

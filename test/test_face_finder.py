@@ -6,9 +6,16 @@ import numpy as np
 import pytest
 from conftest import DLIB_MISSING
 
-from human_tracker.vision.face_finder import WHOLE_FRAME_ZOOM, FaceFinder, Search, plan_runs
+from human_tracker.vision.face_finder import (
+    FINE_WHOLE_FRAME_ZOOM,
+    WHOLE_FRAME_ZOOM,
+    FaceFinder,
+    Search,
+    plan_runs,
+)
 from human_tracker.vision.faces import Detection, near_region
 from human_tracker.vision.people import PersonTracker
+from human_tracker.vision.target_parameters import FaceParameters
 
 FRAME = (0, 0, 320, 240)
 
@@ -50,6 +57,9 @@ def test_searches_merge_only_when_that_scans_fewer_pixels() -> None:
     assert plan_runs([a, whole], FRAME) == [(whole, [0, 1])]
     fine = Search((100, 50, 140, 90), 3.0)  # a face too small for the whole-frame search
     assert len(plan_runs([fine, whole], FRAME)) == 2
+    # The fine whole-frame search runs alone: it answers no other search, finer or not.
+    alone = Search(FRAME, FINE_WHOLE_FRAME_ZOOM, shared=False)
+    assert len(plan_runs([a, fine, alone], FRAME)) == 3 and not alone.contains(a)
 
 
 @pytest.mark.parametrize('thread', [True, False])
@@ -79,6 +89,9 @@ def test_the_searches_of_a_frame_run_once_and_each_gets_its_own_faces(thread: bo
     finder.new_frame()
     everywhere = finder.whole(image)
     assert len(everywhere.result()) == 2 and detector.runs[-1] == ('frame', 1)
+    finder.new_frame()
+    finer = finder.whole(image, FINE_WHOLE_FRAME_ZOOM)
+    assert len(finer.result()) == 2 and detector.runs[-1] == ('region', (FRAME, FINE_WHOLE_FRAME_ZOOM))
 
 
 def test_every_target_of_a_person_tracker_searches_on_one_detector() -> None:
@@ -87,3 +100,37 @@ def test_every_target_of_a_person_tracker_searches_on_one_detector() -> None:
     assert people.face_finder is not None, DLIB_MISSING
     assert all(tracker.faces.finder is people.face_finder for tracker in people.trackers)
     assert len(people.trackers) == 6
+
+
+def test_a_later_persons_head_also_looks_for_small_faces() -> None:
+    """A later person is taken up only on a face: until their head finds one, every
+    ``patient_every``-th whole-frame search also looks for faces too small for it, in a run
+    of its own at the fine zoom; the faces of the usual run stay as they were. The first
+    person's head never looks so."""
+    people = PersonTracker(('head', 'hand'), max_people=2)
+    assert not people.slot('head').tracker.faces.small_faces
+    assert not people.slot('person_2/hand').tracker.faces.small_faces
+    schedule = people.slot('person_2/head').tracker.faces
+    assert schedule.small_faces
+    small, large = (20.0, 20.0, 24.0, 24.0), (140.0, 80.0, 60.0, 60.0)
+    detector = _Detector([small, large])
+    usual = detector.detect
+    # The usual whole-frame run misses the small face.
+    detector.detect = lambda image, upsample=1: [f for f in usual(image, upsample) if f.box[2] > 40]
+    schedule.finder = FaceFinder(detector, thread=False)  # type: ignore[arg-type]
+    parameters = FaceParameters()
+    image = np.zeros((240, 320), np.uint8)
+    every = parameters.patient_every
+    finder = schedule.finder
+
+    def frame() -> list[Detection] | None:
+        finder.new_frame()
+        return schedule.detect(image, True, parameters, lambda misses: None, lambda faces: faces)
+
+    found = [frame() for _ in range(every)]
+    assert [[face.box for face in faces] for faces in found] == [[large]] * (every - 1) + [[large, small]]
+    assert detector.runs[-2:] == [('frame', 1), ('region', (FRAME, FINE_WHOLE_FRAME_ZOOM))]
+    schedule.last_face = large  # its own face, found: the usual search only
+    for _ in range(every):
+        frame()
+    assert detector.runs[-every:] == [('frame', 1)] * every

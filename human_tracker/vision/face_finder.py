@@ -31,10 +31,22 @@ import numpy as np
 from human_tracker.vision.boxes import Box
 from human_tracker.vision.faces import PYRAMID_STEP, Detection, FaceDetector, near_region
 
-__all__ = ['WHOLE_FRAME_ZOOM', 'FaceFinder', 'Found', 'Search', 'plan_runs']
+__all__ = [
+    'FINE_WHOLE_FRAME_ZOOM',
+    'SMALLEST_FACE_IN_FRAME',
+    'WHOLE_FRAME_ZOOM',
+    'FaceFinder',
+    'Found',
+    'Search',
+    'plan_runs',
+]
 
 WHOLE_FRAME_ZOOM = 2.0
 """The zoom of the whole-frame search: the frame upsampled once, faces from about 40 px."""
+SMALLEST_FACE_IN_FRAME = 40.0
+"""The whole-frame search finds faces from about this wide (working pixels)."""
+FINE_WHOLE_FRAME_ZOOM = 4.0
+"""The zoom of the search for faces smaller than that: from about 20 px, four times the pixels."""
 
 Rectangle = tuple[int, int, int, int]
 """(left, top, right, bottom), working pixels."""
@@ -50,11 +62,15 @@ class Search:
             frame's search is :data:`WHOLE_FRAME_ZOOM`.
         near: The face box (x, y, w, h) and reach a search around a face was made from (how it
             runs alone); None for the whole frame.
+        shared: Whether its run may merge with other searches and answer them. The search for
+            small faces runs alone: at its zoom the detector's pyramid gives the faces the other
+            targets look for other boxes, and their tracks would change with it.
     """
 
     rectangle: Rectangle
     zoom: float
     near: tuple[Box, float] | None = None
+    shared: bool = True
 
     @property
     def cost(self) -> float:
@@ -65,6 +81,8 @@ class Search:
     def contains(self, other: Search) -> bool:
         """Whether a run of this search finds every face ``other`` would: its rectangle holds the
         other's, at a zoom at least the other's."""
+        if not (self.shared and other.shared):
+            return self == other
         (l0, t0, r0, b0), (l1, t1, r1, b1) = self.rectangle, other.rectangle
         return l0 <= l1 and t0 <= t1 and r0 >= r1 and b0 >= b1 and self.zoom >= other.zoom
 
@@ -73,6 +91,11 @@ class Search:
         x, y, w, h = face.box
         left, top, right, bottom = self.rectangle
         return left <= x + w / 2 < right and top <= y + h / 2 < bottom
+
+
+def _rectangle(box: Box) -> Rectangle:
+    x, y, w, h = box
+    return (int(x), int(y), int(np.ceil(x + w)), int(np.ceil(y + h)))
 
 
 def _merged(a: Search, b: Search) -> Search:
@@ -94,6 +117,8 @@ def plan_runs(searches: Sequence[Search], frame: Rectangle) -> list[tuple[Search
         for i in range(len(runs)):
             for j in range(i + 1, len(runs)):
                 (a, _), (b, _) = runs[i], runs[j]
+                if not (a.shared and b.shared):
+                    continue
                 if a.contains(b) or b.contains(a):
                     merged = a if a.contains(b) else b
                 elif max(a.zoom, b.zoom) <= PYRAMID_STEP * min(a.zoom, b.zoom):
@@ -120,17 +145,24 @@ class Found:
     finder: FaceFinder
     search: Search
     grey: np.ndarray
+    smaller: Found | None = None
     _faces: Future[list[Detection]] | None = field(default=None, repr=False)
     _run: Search | None = field(default=None, repr=False)
 
     def result(self) -> list[Detection]:
-        """The faces of the search (working pixels, best first); submits the searches held
-        until now first."""
+        """The faces of the search (working pixels, best first), then those of ``smaller`` (the
+        search for faces under :data:`SMALLEST_FACE_IN_FRAME`) not already among them; submits
+        the searches held until now first."""
         if self._faces is None:
             self.finder.submit()
         assert self._faces is not None
         faces = self._faces.result()
-        return faces if self._run is self.search else [face for face in faces if self.search.holds(face)]
+        faces = faces if self._run is self.search else [face for face in faces if self.search.holds(face)]
+        if self.smaller is None:
+            return faces
+        found = [Search(_rectangle(face.box), 1.0) for face in faces]
+        small = [f for f in self.smaller.result() if f.box[2] < SMALLEST_FACE_IN_FRAME]
+        return faces + [f for f in small if not any(box.holds(f) for box in found)]
 
     def answer(self, run: Search, faces: Future[list[Detection]]) -> None:
         """Take ``faces``, those of ``run``, for this search's."""
@@ -193,11 +225,17 @@ class FaceFinder:
         rectangle, zoom = near_region(grey.shape, box, reach)
         return self._ask(Found(self, Search(rectangle, zoom, (box, reach)), grey))
 
-    def whole(self, image: np.ndarray) -> Found:
-        """Ask for the faces on the whole working ``image`` (upsampled once)."""
+    def whole(self, image: np.ndarray, small_faces: bool = False) -> Found:
+        """Ask for the faces on the whole working ``image`` (upsampled once: from about 40 px);
+        with ``small_faces``, also for the smaller ones, at :data:`FINE_WHOLE_FRAME_ZOOM` in a
+        run of their own (the other searches' faces stay as they were)."""
         grey = self.grey(image)
         height, width = grey.shape
-        return self._ask(Found(self, Search((0, 0, width, height), WHOLE_FRAME_ZOOM), grey))
+        found = self._ask(Found(self, Search((0, 0, width, height), WHOLE_FRAME_ZOOM), grey))
+        if small_faces:
+            fine = Search((0, 0, width, height), FINE_WHOLE_FRAME_ZOOM, shared=False)
+            found.smaller = self._ask(Found(self, fine, grey))
+        return found
 
     def submit(self) -> None:
         """Start the runs that answer the searches held (in the thread, or here without one):

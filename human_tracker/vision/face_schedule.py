@@ -20,7 +20,7 @@ import numpy as np
 
 from human_tracker.vision.boxes import Box
 from human_tracker.vision.camera_motion import move_states
-from human_tracker.vision.face_finder import FaceFinder, Found
+from human_tracker.vision.face_finder import SMALLEST_FACE_IN_FRAME, FaceFinder, Found
 from human_tracker.vision.faces import FACE_ON_HEAD, Detection, FaceDetector, face_detector_available
 from human_tracker.vision.target_parameters import FaceParameters
 
@@ -28,15 +28,12 @@ __all__ = [
     'PATIENT_SEARCHES',
     'SEARCH_AFTER_MISSES',
     'SEARCH_REACH',
-    'SMALLEST_FACE_IN_FRAME',
     'FaceSchedule',
     'carry_faces',
 ]
 
 SEARCH_AFTER_MISSES = 3
 """Detector runs near the track in a row that found no face on it before one searches the whole frame."""
-SMALLEST_FACE_IN_FRAME = 40.0
-"""The whole-frame search (upsampled once) finds faces from about this wide (working pixels)."""
 SEARCH_REACH = 4.0
 """A face last seen smaller than :data:`SMALLEST_FACE_IN_FRAME` is looked for within this many of its sizes."""
 AVOIDED_FACE_REACH = 2.0
@@ -60,9 +57,13 @@ class FaceSchedule:
         last_face: The last face found (x, y, w, h), a hand's to keep off; None.
         detected_on: The grey frame of the last run delivered (a face is localised on it).
         late: Whether the faces delivered on this frame were found on the frame before.
+        small_faces: Whether a head that has not found its own face looks for faces too
+            small for the whole-frame search too, on every ``patient_every``-th frame
+            (:meth:`~human_tracker.vision.face_finder.FaceFinder.whole`).
     """
 
     finder: FaceFinder | None = None
+    small_faces: bool = False
     frames: int = 0
     searched_on: int = 0
     faceless_runs: int = 0
@@ -195,8 +196,8 @@ class FaceSchedule:
         self, image: np.ndarray, parameters: FaceParameters, predicted: Callable[[int], np.ndarray | None]
     ) -> Found:
         """A head's search: near the predicted face while the head is followed and its face was
-        found lately; else on the whole frame, or, for a face last seen too small for that,
-        around where it was."""
+        found lately; else on the whole frame (for faces too small for it, see ``small_faces``),
+        or, for a face last seen too small for that, around where it was."""
         assert self.finder is not None
         state = predicted(self.face_misses)
         if state is not None:
@@ -204,7 +205,8 @@ class FaceSchedule:
         self.face_misses = 0
         if self.last_face is not None and self.last_face[2] < SMALLEST_FACE_IN_FRAME:
             return self.finder.near(image, self.last_face, SEARCH_REACH)
-        return self.finder.whole(image)
+        small = self.small_faces and self.last_face is None and self.frames % parameters.patient_every == 0
+        return self.finder.whole(image, small)
 
     def _avoided_search(self, image: np.ndarray) -> Found:
         """A hand's search: around the last face found for ``SEARCH_AFTER_MISSES`` runs (the

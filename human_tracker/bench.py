@@ -301,6 +301,7 @@ def _acceptance(results: dict[str, object]) -> list[dict[str, object]]:
     wrong: dict[str, float] = {}
     consistency: dict[str, float] = {}  # the head bags' NEES
     held: dict[str, float] = {}  # a person's head beside a hand: the share under one id, worst run
+    hand_ids: dict[str, tuple[float, int]] = {}  # a person's hand: IDF1 (mean), switches (most)
     for row in results.get('accuracy', []):  # type: ignore[union-attr]
         tracker, sequence = str(row['tracker']), str(row['sequence'])
         kind = tracker.split(' (')[0]
@@ -312,6 +313,8 @@ def _acceptance(results: dict[str, object]) -> list[dict[str, object]]:
             wrong[f'{sequence} ({name})'] = float(row.get('confident_wrong_max', row.get('confident_wrong', 0.0)))
         if 'head_one_id_min' in row:
             held[f'{sequence} ({name})'] = float(row['head_one_id_min'])
+        if 'head_one_id_min' in row and 'id_switches_max' in row:
+            hand_ids[f'{sequence} ({name})'] = (float(row['idf1_mean']), int(row['id_switches_max']))
         if name == 'ours' and sequence.startswith('head_') and 'nees_mean' in row:
             consistency[sequence] = float(row['nees_mean'])
     for sequence, by in scores.items():
@@ -329,6 +332,9 @@ def _acceptance(results: dict[str, object]) -> list[dict[str, object]]:
         check(f'{name}: confident-wrong share, worst run <= 0.05', share, 0.05, at_most=True)
     for name, share in held.items():
         check(f'{name}: the head keeps one id, share of frames, worst run >= 0.9', share, 0.9)
+    for name, (idf1, switches) in hand_ids.items():
+        check(f"{name}: the hand's IDF1, mean >= 0.8", idf1, 0.8)
+        check(f'{name}: identity switches of the hand, worst run <= 1', switches, 1, at_most=True)
     for sequence, nees in consistency.items():
         check(f'{sequence}: pose NEES of x, y within a factor 2 of 2', nees, (1.0, 4.0))
     people: list[dict[str, object]] = results.get('people', [])  # type: ignore[assignment]

@@ -58,6 +58,8 @@ def test_bars_are_applied_to_the_measured_figures() -> None:
                 'precision_20px': 0.4,
                 'confident_wrong_max': 0.07,
                 'head_one_id_min': 0.85,
+                'idf1_mean': 0.7,
+                'id_switches_max': 1,
             },
         ],
         'skin': [
@@ -133,6 +135,8 @@ def test_bars_are_applied_to_the_measured_figures() -> None:
         'hand2 (ours): confident-wrong share, worst run <= 0.05': (0.0, 0.05, True),
         'hand2 (person, no box): confident-wrong share, worst run <= 0.05': (0.07, 0.05, False),
         'hand2 (person, no box): the head keeps one id, share of frames, worst run >= 0.9': (0.85, 0.9, False),
+        "hand2 (person, no box): the hand's IDF1, mean >= 0.8": (0.7, 0.8, False),
+        'hand2 (person, no box): identity switches of the hand, worst run <= 1': (1, 1, True),
         'head_a: pose NEES of x, y within a factor 2 of 2': (0.8, (1.0, 4.0), False),
         'head_b: pose NEES of x, y within a factor 2 of 2': (1.7, (1.0, 4.0), True),
         'hgr, cells: skin F1 >= 0.92': (0.85, 0.92, False),

@@ -241,6 +241,26 @@ def test_a_target_taken_up_again_near_where_it_was_lost_keeps_its_id() -> None:
         assert slot.held_id == 0  # taken up: nothing held any more
 
 
+def test_a_persons_only_hand_keeps_its_id_while_their_head_is_followed() -> None:
+    """Every hand a person's only hand slot may take up is that person's: while their head is
+    followed it keeps its id through a restart three widths away and a loss of 40 frames
+    ending anywhere. Without the head followed, or with two hand slots, the usual rules: a
+    new id for each."""
+    for hands, head_followed, same in ((1, True, True), (1, False, False), (2, True, False)):
+        person = PersonTracker(('head',) + ('hand',) * hands, id_hold_frames=15)
+        slot = person.slot('hand')
+        person.slot('head').box = (80.0, 0.0, 40.0, 40.0) if head_followed else None
+        person._identify(slot, TargetResult('TRACKING', _estimate(100.0), initialised=True))
+        first = slot.id
+        person._identify(slot, TargetResult('TRACKING', _estimate(220.0), initialised=True))  # restarted
+        assert (slot.id == first) == same, (hands, head_followed)
+        first = slot.id
+        for _ in range(40):
+            person._identify(slot, TargetResult('LOST', _estimate(220.0)))
+        person._identify(slot, TargetResult('TRACKING', _estimate(20.0), initialised=True))
+        assert (slot.id == first) == same and slot.id > 0, (hands, head_followed)
+
+
 def test_a_later_persons_head_needs_a_face_and_a_hand_its_persons_head() -> None:
     """A second person's head is taken up only with a face found on it (the first person's
     by its contour too); a hand only where its own person's head is the followed head nearest

@@ -164,7 +164,8 @@ def _row(
 ) -> dict[str, object]:
     """The first run's scores and ms per frame (wall clock and CPU), the precision's mean, min and
     max over ``runs``, the largest confident-wrong share of any run; with each run's target
-    ``ids``, the mean IDF1 and identity switches (:mod:`~human_tracker.evaluation.identity`);
+    ``ids``, the mean IDF1 and the mean and most identity switches
+    (:mod:`~human_tracker.evaluation.identity`);
     with each run's box-centre ``covariances``, the normalised estimation error squared over
     every run's frames (its mean, 2 expected, and the share within the 95 % ellipse); with each
     run's ``particles`` ([least, median, most] per frame), the fewest and most of any run."""
@@ -188,6 +189,7 @@ def _row(
         identity = {
             'idf1_mean': round(float(np.mean([s['idf1'] for s in scores])), 3),
             'id_switches_mean': round(float(np.mean([s['id_switches'] for s in scores])), 1),
+            'id_switches_max': int(max(s['id_switches'] for s in scores)),
         }
     return {
         'tracker': tracker,

@@ -27,8 +27,10 @@ Ids: every time a target is taken up (TRACKING after WAITING or LOST, or restart
 its width from where it was) it gets a new id, never reused while the tracker lives. A LOST
 target reports no id, but its id is held for ``id_hold_frames``: taken up again by its own slot
 (:mod:`~human_tracker.vision.slots`) within ``HOLD_REACH`` widths of where it was, it gets it
-back (a hand that passed behind someone's head). A consumer that sees the same id on two
-frames sees the same target. What each rule was measured against: docs/decisions/two-people.md
+back (a hand that passed behind someone's head). A person's only hand keeps its id however
+long and far it was lost, or wherever it restarted, while their head is followed: every hand
+it may take up is that person's. A consumer that sees the same id on two frames sees the same
+target. What each rule was measured against: docs/decisions/two-people.md
 and hand2-as-a-person.md.
 """
 
@@ -249,7 +251,8 @@ class PersonTracker:
         """The slot's id and box after its tracker's ``result`` on this frame; the result, not
         TRACKING for a target the slot may not take up (:meth:`_may_take_up`): WAITING while the
         slot never took one up, else LOST."""
-        if result.tracking and slot.jumped(result):
+        keeps = self._persons_hand(slot)
+        if result.tracking and slot.jumped(result) and not (keeps and self._may_take_up(slot, result)):
             slot.id = 0  # another target now: the one followed is gone
         if result.tracking and slot.id == 0:
             if not self._may_take_up(slot, result):
@@ -258,7 +261,7 @@ class PersonTracker:
                 else:
                     slot.tracker.decline()  # never taken up: it still waits
                 result = replace(result, status=slot.tracker.status)
-            elif slot.holds(result.estimate.state):
+            elif slot.holds(result.estimate.state, anywhere=keeps):
                 slot.id = slot.held_id
             else:
                 self.last_id += 1
@@ -272,12 +275,22 @@ class PersonTracker:
             slot.id = 0
         elif not result.tracking and slot.held_id:
             slot.held_frames += 1
-            if slot.held_frames > self.id_hold_frames:
+            if slot.held_frames > self.id_hold_frames and not keeps:
                 slot.retire()
         if result.estimate is not None:
             slot.last_state = result.estimate.state
         slot.box = result.estimate.box if result.tracking else None
         return result
+
+    def _persons_hand(self, slot: Slot) -> bool:
+        """Whether ``slot`` is its person's only hand and their head is followed: every hand it
+        takes up is then that person's (:meth:`_may_take_up`), and keeps the id, however far
+        and long it was lost (a consumer reading the person's gesture keys it by the id)."""
+        return (
+            slot.kind == 'hand'
+            and self.kinds.count('hand') == 1
+            and any(o.person == slot.person and o.kind == 'head' and o.box is not None for o in self.slots)
+        )
 
     def _may_take_up(self, slot: Slot, result: TargetResult) -> bool:
         """Whether a target new to ``slot`` is one it may follow: a later person's head only
@@ -287,7 +300,8 @@ class PersonTracker:
         took the waving hand of the person behind: theirs to take up); neither where another
         slot of its kind holds an id for a target lost there (:meth:`~human_tracker.vision.slots.Slot.holds`)."""
         state = result.estimate.state
-        if any(other is not slot and other.kind == slot.kind and other.holds(state) for other in self.slots):
+        held = [o for o in self.slots if o is not slot and o.kind == slot.kind and o.held_frames <= self.id_hold_frames]
+        if any(other.holds(state) for other in held):
             return False
         if slot.kind == 'head':
             return slot.person == 1 or slot.tracker.detector is None or slot.tracker.has_fresh_face

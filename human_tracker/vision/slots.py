@@ -50,11 +50,13 @@ class Slot:
     held_frames: int = 0
     taken_up: bool = False
 
-    def holds(self, state: np.ndarray) -> bool:
+    def holds(self, state: np.ndarray, anywhere: bool = False) -> bool:
         """Whether the slot holds an id for a target lost within :data:`HOLD_REACH` widths (its
-        scale then) of ``state`` (x, y, scale, θ; camera pixels)."""
+        scale then) of ``state`` (x, y, scale, θ; camera pixels), or ``anywhere``."""
         held = self.held_state
-        return held is not None and float(np.hypot(*(state[:2] - held[:2]))) <= HOLD_REACH * held[2]
+        if held is None:
+            return False
+        return anywhere or float(np.hypot(*(state[:2] - held[:2]))) <= HOLD_REACH * held[2]
 
     def held_region(self) -> Box:
         """The region its followed target holds (x, y, w, h, camera pixels): its box, and for a

@@ -28,7 +28,7 @@ from functools import partial
 import cv2
 import numpy as np
 
-from human_tracker.vision.boxes import Box
+from human_tracker.vision.boxes import Box, centre_within
 from human_tracker.vision.faces import PYRAMID_STEP, Detection, FaceDetector, near_region
 
 __all__ = [
@@ -93,11 +93,6 @@ class Search:
         return left <= x + w / 2 < right and top <= y + h / 2 < bottom
 
 
-def _rectangle(box: Box) -> Rectangle:
-    x, y, w, h = box
-    return (int(x), int(y), int(np.ceil(x + w)), int(np.ceil(y + h)))
-
-
 def _merged(a: Search, b: Search) -> Search:
     """One search covering ``a`` and ``b``: their bounding rectangle at the larger zoom."""
     (l0, t0, r0, b0), (l1, t1, r1, b1) = a.rectangle, b.rectangle
@@ -160,9 +155,8 @@ class Found:
         faces = faces if self._run is self.search else [face for face in faces if self.search.holds(face)]
         if self.smaller is None:
             return faces
-        found = [Search(_rectangle(face.box), 1.0) for face in faces]
         small = [f for f in self.smaller.result() if f.box[2] < SMALLEST_FACE_IN_FRAME]
-        return faces + [f for f in small if not any(box.holds(f) for box in found)]
+        return faces + [f for f in small if not any(centre_within(f.box, face.box) for face in faces)]
 
     def answer(self, run: Search, faces: Future[list[Detection]]) -> None:
         """Take ``faces``, those of ``run``, for this search's."""

@@ -132,10 +132,10 @@ class PersonTracker:
                     face_finder=self.face_finder,
                 )
                 if person > 1 and kind == 'head':
-                    # A later person is taken up only on a face (_may_take_up): until one is
-                    # found, their search also finds faces too small for the first person's,
-                    # who may be found moving (two real people side by side, 640x240: the one
-                    # whose face is 43 px was never found, 21 px at the working width).
+                    # A later person is taken up only on a face (_may_take_up), not on the
+                    # moving region as the first may be: until one is found, their search also
+                    # finds faces too small for the whole-frame search
+                    # (docs/decisions/later-people-small-faces.md).
                     tracker.faces.small_faces = True
                 self.slots.append(Slot(name, person, kind, hand, tracker))
 

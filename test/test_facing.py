@@ -12,10 +12,12 @@ import pytest
 from conftest import REAL_DATA
 
 from human_tracker.evaluation.facing import LABELS, facing_scores, read_facing, read_labels
-from human_tracker.vision.faces import Detection, FaceDetector, face_detector_available
+from human_tracker.vision.appearance import colour_bins
+from human_tracker.vision.faces import FACE_ON_HEAD, Detection, FaceDetector, face_detector_available
 from human_tracker.vision.facing import (
     SMALLEST_VISIBLE_FACE,
     VOTING_RUNS,
+    FaceLook,
     Facing,
     FacingVotes,
     face_visible,
@@ -38,6 +40,38 @@ def test_a_run_says_toward_or_side_by_the_filter_that_found_the_face() -> None:
 def test_no_face_is_away_only_where_one_would_be_found() -> None:
     assert facing_after_run(None, visible=True) == AWAY
     assert facing_after_run(None, visible=False) == UNKNOWN
+
+
+def test_a_run_that_misses_a_face_where_it_still_looks_like_one_says_nothing() -> None:
+    assert facing_after_run(None, visible=True, looks_like_face=True) is None
+    face = Detection((10.0, 10.0, 40.0, 40.0), 1.0)
+    assert facing_after_run(face, visible=True, looks_like_face=True) == TOWARD
+
+
+def _head(face_colour: tuple[int, int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """A frame's colour bins with a head at a state [x, y, s, θ] whose face's place is painted
+    ``face_colour`` (BGR, with some noise) on a grey-blue background."""
+    rng = np.random.default_rng(0)
+    image = np.full((120, 160, 3), (120, 90, 60), np.uint8)
+    state = np.array([80.0, 50.0, 40.0, 0.0])
+    x, y, w, h = (int(v) for v in FACE_ON_HEAD.box(state))
+    patch = np.array(face_colour, np.int16) + rng.integers(-12, 13, (h, w, 3))
+    image[y : y + h, x : x + w] = np.clip(patch, 0, 255).astype(np.uint8)
+    return colour_bins(image), state
+
+
+def test_the_face_look_is_the_face_seen_toward_the_camera_not_the_back_of_the_head() -> None:
+    skin, hair = (110, 140, 200), (30, 35, 40)
+    face_bins, state = _head(skin)
+    hair_bins, _ = _head(hair)
+    look = FaceLook()
+    assert not look.still_there(face_bins, state, 0.5)  # no face seen yet: a miss may be the back
+    look.seen(face_bins, state)
+    assert look.still_there(face_bins, state, 0.5)
+    assert not look.still_there(hair_bins, state, 0.5)
+    assert not look.still_there(face_bins, state + np.array([60.0, 0.0, 0.0, 0.0]), 0.5)  # off the face
+    look.clear()
+    assert not look.still_there(face_bins, state, 0.5)
 
 
 def test_a_face_is_visible_when_big_textured_and_in_the_frame() -> None:

@@ -419,21 +419,47 @@ def test_a_face_delivered_late_keeps_up_with_a_moving_head() -> None:
     assert max(np.abs(lags)) < 4.5
 
 
+def _back_of_head(image: np.ndarray, box: tuple[float, float, float, float]) -> np.ndarray:
+    """``image`` with the synthetic head in ``box`` turned round: its face painted in its hair's
+    colour, the outline as it was."""
+    x, y, w, h = (int(v) for v in box)
+    head = np.zeros(image.shape[:2], np.uint8)
+    cv2.ellipse(head, (x + w // 2, y + h // 2), (w // 2, h // 2), 0, 0, 360, 1, -1)
+    skin = image[..., 2].astype(int) - image[..., 1] > 30  # the face is red; the hair is not
+    turned = image.copy()
+    turned[(head > 0) & skin] = (32, 33, 43)
+    return turned
+
+
 @pytest.mark.parametrize('detect_every', [5, 1])
 def test_a_head_turned_away_stays_tracking_and_faces_away(detect_every: int) -> None:
     """Without a moving region, a head whose face was seen and is no longer found (a person
-    turned round) stays TRACKING while its contour fits as usual, whatever the detector's
-    cadence (with detect_every 1 its runs thin out to one in ``patient_every`` frames); it faces
-    toward the camera while its face is found and away once most of the last runs found none."""
+    turned round: the hair where the face was) stays TRACKING while its contour fits as usual,
+    whatever the detector's cadence (with detect_every 1 its runs thin out to one in
+    ``patient_every`` frames); it faces toward the camera while its face is found and away once
+    most of the last runs found none."""
     (frame, image), *_ = _frames('head_basic')
     face = _face_on_box(frame.ground_truth, image)
     tracker = _face_tracker([[face], [face], []], detect_every)
     tracker.initialise_from_box(frame.ground_truth)
-    results = [tracker.process(image) for _ in range(60)]
+    turned = _back_of_head(image, frame.ground_truth)
+    results = [tracker.process(image if k < 15 else turned) for k in range(60)]
     assert [r.status for r in results] == ['TRACKING'] * 60
     lag = int(tracker.parameters.detector_thread)
     assert results[detect_every + lag].facing == 'toward'
     assert results[-1].facing == 'away'
+
+
+def test_a_face_missed_where_it_still_shows_is_not_a_head_turned_away() -> None:
+    """A detector that stops finding a face whose place on the head still looks as it did (a
+    grey or blurred face dlib misses) says nothing of where the head faces: it holds toward."""
+    (frame, image), *_ = _frames('head_basic')
+    face = _face_on_box(frame.ground_truth, image)
+    tracker = _face_tracker([[face], [face], []], detect_every=5)
+    tracker.initialise_from_box(frame.ground_truth)
+    results = [tracker.process(image) for _ in range(60)]
+    assert [r.status for r in results] == ['TRACKING'] * 60
+    assert {r.facing for r in results[10:]} == {'toward'}
 
 
 def test_a_head_whose_edges_fade_without_motion_is_lost() -> None:

@@ -6,8 +6,10 @@ looking at the camera, looking to its left, looking to its right, and the first 
 image plane either way (:attr:`~human_tracker.vision.faces.Detection.view`). So a detector run
 that finds a face on the head says whether it looks toward the camera or to a side; a run that
 looks where the face would be and finds none says the head is turned away, when a face there
-would be big and bright enough to be found; otherwise, and while the head is not followed, the
-facing is unknown. A single run misses a face now and then (a blink of motion blur, a tilt past
+would be big and bright enough to be found and that place no longer looks as the face did where
+runs found it turned toward the camera (:class:`FaceLook`: a grey, low-contrast or blurred face
+is missed while it is there); otherwise, and while the head is not followed, the facing is
+unknown. A single run misses a face now and then (a blink of motion blur, a tilt past
 the turned filters), so the facing reported is the verdict most of the last
 :data:`VOTING_RUNS` runs gave (:class:`FacingVotes`); between runs it holds.
 """
@@ -20,14 +22,17 @@ from enum import StrEnum
 
 import numpy as np
 
+from human_tracker.vision.appearance import AppearanceModel
 from human_tracker.vision.boxes import Box
-from human_tracker.vision.faces import Detection
+from human_tracker.vision.faces import FACE_ON_HEAD, Detection
 
 __all__ = [
     'FAINTEST_VISIBLE_FACE',
+    'LOOK_MEMORY',
     'SIDE_VIEWS',
     'SMALLEST_VISIBLE_FACE',
     'VOTING_RUNS',
+    'FaceLook',
     'Facing',
     'FacingVotes',
     'face_visible',
@@ -44,6 +49,9 @@ FAINTEST_VISIBLE_FACE = 15.0
 dark for a run to find a face there: no verdict of ``away``."""
 VOTING_RUNS = 3
 """The detector runs whose verdicts :class:`FacingVotes` weighs."""
+LOOK_MEMORY = 10
+"""Runs that found the face toward the camera over which :class:`FaceLook` forgets (its
+exponential mean's time constant): the light on a face changes as a person moves."""
 
 
 class Facing(StrEnum):
@@ -72,13 +80,47 @@ def face_visible(grey: np.ndarray, face: Box) -> bool:
     return float(around.std()) >= FAINTEST_VISIBLE_FACE
 
 
-def facing_after_run(face: Detection | None, visible: bool) -> Facing:
+def facing_after_run(face: Detection | None, visible: bool, looks_like_face: bool = False) -> Facing | None:
     """The verdict of a detector run that looked at a followed head: the ``face`` it found on the
-    head (its filter tells toward from side), else ``away`` where a face would have been
-    ``visible`` (:func:`face_visible`), else unknown."""
+    head (its filter tells toward from side); else none (None: the run missed a face) where the
+    place of the face still ``looks_like_face`` (:meth:`FaceLook.still_there`); else ``away``
+    where a face would have been ``visible`` (:func:`face_visible`), else unknown."""
     if face is not None:
         return Facing.SIDE if face.view in SIDE_VIEWS else Facing.TOWARD
+    if looks_like_face:
+        return None
     return Facing.AWAY if visible else Facing.UNKNOWN
+
+
+@dataclass
+class FaceLook:
+    """What a followed head's face looked like where detector runs found it toward the camera:
+    the colour histograms (:class:`~human_tracker.vision.appearance.AppearanceModel`) of the
+    face's place on the contour (:data:`~human_tracker.vision.faces.FACE_ON_HEAD`), their mean
+    over such runs, the last :data:`LOOK_MEMORY` weighing most. The back of a head (hair) and a
+    hand or a book before the face do not look like it; a face the detector missed does."""
+
+    model: AppearanceModel | None = None
+    runs: int = 0
+
+    def seen(self, bins: np.ndarray, state: np.ndarray) -> None:
+        """A run found the face toward the camera on the head at ``state`` (pixels of ``bins``)."""
+        self.runs += 1
+        if self.model is None:
+            self.model = AppearanceModel.learn(bins, state, FACE_ON_HEAD)
+        else:
+            self.model.adapt(bins, state, max(1.0 / self.runs, 1.0 / LOOK_MEMORY))
+
+    def still_there(self, bins: np.ndarray, state: np.ndarray, limit: float) -> bool:
+        """Whether the face's place on the head at ``state`` lies within the Bhattacharyya
+        distance ``limit`` of the face's look (False before a run found the face)."""
+        if self.model is None:
+            return False
+        return float(np.sqrt(self.model.squared_distances(bins, state[None, :4])[0])) <= limit
+
+    def clear(self) -> None:
+        """Forget the face: another person, or the track was reset."""
+        self.model, self.runs = None, 0
 
 
 @dataclass

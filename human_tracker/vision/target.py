@@ -34,7 +34,7 @@ from human_tracker.vision.boxes import Box, BoxRelation, centre_within
 from human_tracker.vision.evidence import Cues, Evidence, WorkingFrame, working_cues
 from human_tracker.vision.face_schedule import SEARCH_AFTER_MISSES, carry_faces
 from human_tracker.vision.faces import FACE_ON_HEAD, Detection
-from human_tracker.vision.facing import face_visible, facing_after_run
+from human_tracker.vision.facing import Facing, face_visible, facing_after_run
 from human_tracker.vision.lifecycle import LOST, TRACKING, Event, recovers, transition, weak_frame
 from human_tracker.vision.outcomes import TargetResult
 from human_tracker.vision.resolution import working_scale
@@ -327,11 +327,27 @@ class TargetTracker(Track):
         if self.status != TRACKING:
             self.facing_votes.clear()
         elif proposals.head_faces is not None and not weak:  # a run looked at a head that fits
-            self.facing_votes.add(facing_after_run(face, face_visible(frame.grey, FACE_ON_HEAD.box(state))))
+            self._vote_facing(face, frame, state)
         if self.status == TRACKING and self.steady_frames >= p.lost_frames:
             # Only a size held as long as a loss takes changes the frame's size.
             self._fit_resolution(float(estimate.state[2]), self.scale)
         return estimate
+
+    def _vote_facing(self, face: Detection | None, frame: WorkingFrame, state: np.ndarray) -> None:
+        """A detector run's verdict of where the head at ``state`` (working pixels) faces; a face
+        found toward the camera is what its place on the head looks like (:class:`~.facing.FaceLook`)."""
+        bins = frame.bins
+        verdict = facing_after_run(
+            face,
+            face is None and face_visible(frame.grey, FACE_ON_HEAD.box(state)),
+            face is None
+            and bins is not None
+            and self.face_look.still_there(bins, state, self.parameters.lost_appearance_distance),
+        )
+        if verdict is Facing.TOWARD and bins is not None:
+            self.face_look.seen(bins, state)
+        if verdict is not None:
+            self.facing_votes.add(verdict)
 
     def _settle_on_start_box(self, cues: Cues, bins: np.ndarray) -> None:
         """Start the filter where the contour best fits the silhouette around the start box; the

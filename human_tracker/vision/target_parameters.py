@@ -246,7 +246,9 @@ class LossParameters:
             0 disables the test.
         lost_appearance_distance: Bhattacharyya distance of the region from its reference
             above which a frame is weak, and above which a hypothesis does not start the
-            filter once the target's appearance is known.
+            filter once the target's appearance is known; within it of the face seen toward
+            the camera (:class:`~human_tracker.vision.facing.FaceLook`), a run that finds no
+            face on a head missed it (no verdict of where the head faces).
         lost_frames: Consecutive weak frames after which the target is lost.
         lost_fit_drop: Share by which the edge fit may fall below the target's usual fit
             before a frame without a motion mask is weak; without a mask, colours unlike the

@@ -22,7 +22,7 @@ from human_tracker.vision.evidence import FrameSettings
 from human_tracker.vision.face_finder import FaceFinder
 from human_tracker.vision.face_schedule import FaceSchedule
 from human_tracker.vision.faces import FaceDetector
-from human_tracker.vision.facing import FacingVotes
+from human_tracker.vision.facing import FaceLook, FacingVotes
 from human_tracker.vision.lifecycle import WAITING, Event, TrackState, UsualFit, transition
 from human_tracker.vision.resolution import finest_scale, track_width, working_scale
 from human_tracker.vision.target_parameters import TargetParameters
@@ -67,6 +67,7 @@ class Track:
     started_from_box: bool = field(default=False, init=False)
     # Where a followed head faces: its detector runs' verdicts (:mod:`~human_tracker.vision.facing`).
     facing_votes: FacingVotes = field(default_factory=FacingVotes, init=False)
+    face_look: FaceLook = field(default_factory=FaceLook, init=False)
 
     def __post_init__(self) -> None:
         self.parameters.validate()
@@ -131,6 +132,7 @@ class Track:
         self.started_from_box = True
         self.faces.drop_pending()  # its faces belong to the frame before the box
         self.appearance = None
+        self.face_look.clear()
         self.status = transition(self.status, Event.START)
         self.weak_frames = 0
 
@@ -154,6 +156,7 @@ class Track:
         self.camera = CameraShake()
         self.started_from_box = False
         self.facing_votes.clear()
+        self.face_look.clear()
 
     def frame_settings(self, frame_width: int) -> FrameSettings:
         """What this track's working frame of a frame ``frame_width`` pixels wide depends on."""

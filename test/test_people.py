@@ -21,7 +21,7 @@ from human_tracker.vision.anchoring import FRESH_FACE_FRAMES
 from human_tracker.vision.background import BackgroundModel
 from human_tracker.vision.boxes import box_centre, centre_within
 from human_tracker.vision.evidence import Evidence, WorkingFrame
-from human_tracker.vision.faces import FACE_ON_HEAD, Detection
+from human_tracker.vision.faces import Detection
 from human_tracker.vision.lifecycle import LOST, TRACKING
 from human_tracker.vision.people import SAME_REGION, PersonTracker, TrackedTarget, kinds_of, primary_target
 from human_tracker.vision.resolution import to_working
@@ -168,7 +168,8 @@ def test_the_hand_keeps_off_the_face_found_on_the_head() -> None:
             if max_people == 1:
                 assert hand.faces.last_face is None  # the synthetic head has no face for the hand's dlib
             else:
-                placed = FACE_ON_HEAD.box(head_outcome.result.estimate.state)
+                assert head.face_place.faces > 0  # the place learnt from the stub's faces
+                placed = head.face_place.relation.box(head_outcome.result.estimate.state)
                 np.testing.assert_allclose(np.array(hand.faces.last_face) / hand.scale, placed, atol=1e-6)
         assert hand.faces.frames == runs + (3 if max_people == 1 else 0)  # handed the face, its detector did not run
         if max_people == 1:

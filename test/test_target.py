@@ -12,7 +12,9 @@ from conftest import DLIB_MISSING, REAL_DATA, REPO
 from human_tracker.evaluation.metrics import centre_errors, summarise
 from human_tracker.io.bags import read_frames
 from human_tracker.ros.image_conversion import message_to_bgr8, to_mono8
+from human_tracker.vision.anchoring import FRESH_FACE_FRAMES
 from human_tracker.vision.background import BackgroundModel
+from human_tracker.vision.boxes import BoxRelation
 from human_tracker.vision.faces import FACE_ON_HEAD, Detection
 from human_tracker.vision.optical_flow import OpticalFlow
 from human_tracker.vision.resolution import to_working, working_scale
@@ -392,6 +394,49 @@ def test_a_face_on_the_start_frame_relates_the_given_box_to_it(detector_thread: 
     assert not np.allclose(results[5 + lag].estimate.state[:3], results[0].estimate.state[:3], atol=0.5)
     assert results[5 + lag].status == 'TRACKING'
     np.testing.assert_allclose(results[5 + lag].estimate.box, given, atol=1.0 if lag else 1e-6)
+
+
+def test_a_heads_face_place_is_learnt_from_the_faces_found_on_it() -> None:
+    """A face found on a steady frame teaches the head where its face sits on its contour: the
+    mean relation of every such face (FACE_ON_HEAD before the first), and the detector then
+    looks around that place. Faces planted 1.0 head widths wide and 0.3 below the head's
+    centre (FACE_ON_HEAD: 0.8 and 0.12) give back that relation within the contour's own
+    jitter; a new box forgets it."""
+    frames = _frames('head_basic')
+    scale = working_scale(frames[0][1].shape[1], TargetParameters().working_width)
+    planted = BoxRelation(centre=(0.0, 0.3), size=(1.0, 1.0))
+    faces = [
+        [Detection(tuple(v * scale for v in planted.box(state_from_box(f.ground_truth, head_and_shoulders()))), 1.0)]
+        for f, _ in frames[:30]
+    ]
+    tracker = _face_tracker(faces, detect_every=1, detector_thread=False)
+    tracker.initialise_from_box(frames[0][0].ground_truth)
+    assert tracker.face_place.relation == FACE_ON_HEAD
+    for _, image in frames[:30]:
+        assert tracker.process(image).status == 'TRACKING'
+    learnt = tracker.face_place.relation
+    assert tracker.face_place.faces >= 25
+    np.testing.assert_allclose(learnt.centre, planted.centre, atol=0.05)
+    np.testing.assert_allclose(learnt.size, planted.size, atol=0.05)
+    np.testing.assert_allclose(tracker._predicted_face(0), learnt.box(tracker.filter.particles.mean(axis=0)))
+    tracker.initialise_from_box(frames[0][0].ground_truth)
+    assert tracker.face_place.relation == FACE_ON_HEAD and tracker.face_place.faces == 0
+
+
+def test_a_held_head_draws_no_particles_at_another_persons_face() -> None:
+    """While a head holds with its own face fresh, only faces that could be that face (of its
+    size, or where it was) draw particles and centre the detection term: a face half as large
+    again beside it is someone else's. Weak, or with no fresh face, every face draws."""
+    tracker = TargetTracker(head_and_shoulders(), TrackerParameters(seed=0), TargetParameters())
+    own, other = (140.0, 110.0, 40.0, 40.0), (220.0, 140.0, 60.0, 60.0)
+    states = np.array([FACE_ON_HEAD.state(own), FACE_ON_HEAD.state(other)])
+    tracker.status, tracker.faces.last_face, tracker.frames_without_own_face = 'TRACKING', own, 0
+    np.testing.assert_array_equal(tracker._drawing(states), states[:1])
+    assert tracker._drawing(states[1:]) is None
+    tracker.weak_frames = 1
+    np.testing.assert_array_equal(tracker._drawing(states), states)
+    tracker.weak_frames, tracker.frames_without_own_face = 0, FRESH_FACE_FRAMES + 1
+    np.testing.assert_array_equal(tracker._drawing(states), states)
 
 
 def test_a_negative_detector_wait_interval_is_refused() -> None:

@@ -11,7 +11,7 @@ there, and the contour carries it until the next. Everything here is in working 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -27,7 +27,9 @@ __all__ = [
     'FRESH_FACE_FRAMES',
     'UNCONFIRMED_FRAMES',
     'BoxAnchor',
+    'FacePlace',
     'could_be_own_face',
+    'could_be_own_faces',
     'face_and_neck',
     'face_beside',
     'face_on',
@@ -117,12 +119,51 @@ class BoxAnchor:
         self.face_relation = BoxRelation.of(box, face_state)
 
 
-def face_on(detections: list[Detection], state: np.ndarray) -> Detection | None:
+@dataclass
+class FacePlace:
+    """Where a head's own face sits on its contour: :data:`~human_tracker.vision.faces.FACE_ON_HEAD`
+    until a face is found on it, then the mean relation (:class:`~human_tracker.vision.boxes.BoxRelation`)
+    of every face found on its steady frames.
+
+    The faces' proposals, their detection term, which face is the head's and where its
+    detector looks all use it. The generic relation is a face on an average head; on a real
+    head the contour the edges fit sits elsewhere around the face (docs/decisions/face-place.md),
+    and a face drawing the contour to the generic place pulls it off the edges. A person's face
+    does not move on their head, so every face weighs the same: a short memory would follow
+    the contour's own errors.
+    """
+
+    faces: int = 0
+    _centre: np.ndarray = field(default_factory=lambda: np.zeros(2), repr=False)
+    _size: np.ndarray = field(default_factory=lambda: np.zeros(2), repr=False)
+
+    @property
+    def relation(self) -> BoxRelation:
+        """The face's place on the head's contour (template units)."""
+        if not self.faces:
+            return FACE_ON_HEAD
+        centre, size = self._centre / self.faces, self._size / self.faces
+        return BoxRelation((float(centre[0]), float(centre[1])), (float(size[0]), float(size[1])))
+
+    def add(self, face: Box, state: np.ndarray) -> None:
+        """Take ``face`` (x, y, w, h), found on the head at ``state``, into the mean."""
+        relation = BoxRelation.of(face, state)
+        self.faces += 1
+        self._centre += relation.centre
+        self._size += relation.size
+
+    def clear(self) -> None:
+        """Forget the faces (a new target)."""
+        self.faces = 0
+        self._centre, self._size = np.zeros(2), np.zeros(2)
+
+
+def face_on(detections: list[Detection], state: np.ndarray, place: BoxRelation = FACE_ON_HEAD) -> Detection | None:
     """The nearest of ``detections`` that is the face of the head at ``state``: within
-    ``FACE_MATCH_DISTANCE`` face widths of where the contour puts the face, of about its size
-    (within ``FACE_MATCH_SIZE``). The nearest, not the likeliest: a face passing close by
-    (someone walking in front) is not this head's."""
-    x, y, size, height = FACE_ON_HEAD.box(state)
+    ``FACE_MATCH_DISTANCE`` face widths of where the contour puts the face (``place``), of
+    about its size (within ``FACE_MATCH_SIZE``). The nearest, not the likeliest: a face passing
+    close by (someone walking in front) is not this head's."""
+    x, y, size, height = place.box(state)
     centre = np.array([x + size / 2, y + height / 2])
     best, best_distance = None, FACE_MATCH_DISTANCE * size
     for detection in detections:
@@ -143,6 +184,7 @@ def restart_on_face(
     fresh_face: Box | None,
     lost_appearance_distance: float,
     confirmed: bool = True,
+    place: BoxRelation = FACE_ON_HEAD,
 ) -> int | None:
     """Which detection (index into ``states``, the faces' head states, best first) restarts the
     filter, or None.
@@ -156,14 +198,15 @@ def restart_on_face(
     does (a contour that slid onto clutter, or shrank onto part of the head); once it is not
     ``confirmed`` (its own face not found for :data:`UNCONFIRMED_FRAMES` frames), as a target
     found by itself: the absence of its face does not make a head weak, but a contour no face
-    has confirmed for a while may hold clutter that fits as well as the head.
+    has confirmed for a while may hold clutter that fits as well as the head. ``place``: where
+    the head's face sits on its contour (:class:`FacePlace`).
     """
     if not holding or estimate is None:
         return 0
     if face is not None:
         return None
     if not started_from_box or not confirmed:
-        return could_be_own_face(states, fresh_face)
+        return could_be_own_face(states, fresh_face, place)
     beside = face_beside(states, estimate.state)
     if beside is not None:
         return beside
@@ -186,21 +229,28 @@ def face_beside(states: np.ndarray, state: np.ndarray) -> int | None:
     return int(np.flatnonzero(beside)[np.argmin(distances[beside])])
 
 
-def could_be_own_face(states: np.ndarray, fresh_face: Box | None) -> int | None:
-    """The first of ``states`` (faces' head states, best first) that could be the head's own
-    ``fresh_face`` (found within ``FRESH_FACE_FRAMES`` frames): within a factor
-    ``FACE_SIZE_CHANGE`` of its size, or within ``FACE_MATCH_DISTANCE`` of its widths of where
-    it was (a face half out of the frame is found at other sizes); None when none could. The
-    first when there is no fresh face. A face does not change size that much in a few frames:
+def could_be_own_faces(states: np.ndarray, fresh_face: Box, place: BoxRelation = FACE_ON_HEAD) -> np.ndarray:
+    """Which of ``states`` (``(D, 4)`` faces' head states) could be the head's own ``fresh_face``
+    (found within ``FRESH_FACE_FRAMES`` frames): within a factor ``FACE_SIZE_CHANGE`` of its
+    size, or within ``FACE_MATCH_DISTANCE`` of its widths of where it was (a face half out of
+    the frame is found at other sizes). A face does not change size that much in a few frames:
     one of another size elsewhere is someone else's, or the detector's mistake while a hand
-    hides this one."""
-    if fresh_face is None:
-        return 0
-    own = FACE_ON_HEAD.state(fresh_face)
+    hides this one. ``states`` and the fresh face's head are placed by ``place``. Returns a
+    ``(D,)`` boolean mask."""
+    own = place.state(fresh_face)
     ratios = states[:, 2] / own[2]
     alike = (ratios >= 1 / FACE_SIZE_CHANGE) & (ratios <= FACE_SIZE_CHANGE)
     near = np.hypot(*(states[:, :2] - own[:2]).T) <= FACE_MATCH_DISTANCE * fresh_face[2]
-    could = np.flatnonzero(alike | near)
+    return alike | near
+
+
+def could_be_own_face(states: np.ndarray, fresh_face: Box | None, place: BoxRelation = FACE_ON_HEAD) -> int | None:
+    """The first of ``states`` (faces' head states, best first) that could be the head's own
+    ``fresh_face`` (:func:`could_be_own_faces`); None when none could, the first when there is
+    no fresh face."""
+    if fresh_face is None:
+        return 0
+    could = np.flatnonzero(could_be_own_faces(states, fresh_face, place))
     return int(could[0]) if could.size else None
 
 

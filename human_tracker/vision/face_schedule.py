@@ -21,7 +21,7 @@ import numpy as np
 from human_tracker.vision.boxes import Box
 from human_tracker.vision.camera_motion import move_states
 from human_tracker.vision.face_finder import SMALLEST_FACE_IN_FRAME, FaceFinder, Found
-from human_tracker.vision.faces import FACE_ON_HEAD, Detection, FaceDetector, face_detector_available
+from human_tracker.vision.faces import Detection, FaceDetector, face_detector_available
 from human_tracker.vision.target_parameters import FaceParameters
 
 __all__ = [
@@ -123,7 +123,7 @@ class FaceSchedule:
         image: np.ndarray,
         waits: bool,
         parameters: FaceParameters,
-        predicted: Callable[[int], np.ndarray | None],
+        predicted: Callable[[int], Box | None],
         carry: Callable[[list[Detection]], list[Detection]],
     ) -> list[Detection] | None:
         """Faces for this working frame, None when no run delivers any on it.
@@ -132,8 +132,8 @@ class FaceSchedule:
             image: The working image (grey or BGR).
             waits: This frame waits for its own run (:meth:`waits`).
             parameters: The target's.
-            predicted: Given the runs without a face on the target it tolerates, the state
-                [x, y, s, θ] around whose face a head's detector looks, or None: the whole frame.
+            predicted: Given the runs without a face on the target it tolerates, the face box
+                (x, y, w, h) around which a head's detector looks, or None: the whole frame.
             carry: Takes faces found on the frame before to where this frame's prediction puts
                 them (:func:`carry_faces`).
         """
@@ -165,7 +165,7 @@ class FaceSchedule:
         return self.finder.localise(self.detected_on, box)
 
     def _search(
-        self, image: np.ndarray, parameters: FaceParameters, predicted: Callable[[int], np.ndarray | None]
+        self, image: np.ndarray, parameters: FaceParameters, predicted: Callable[[int], Box | None]
     ) -> Found | None:
         """The detector's search on this frame, if one is due."""
         if not self.due(parameters, self.frames):
@@ -193,15 +193,15 @@ class FaceSchedule:
         return found
 
     def _head_search(
-        self, image: np.ndarray, parameters: FaceParameters, predicted: Callable[[int], np.ndarray | None]
+        self, image: np.ndarray, parameters: FaceParameters, predicted: Callable[[int], Box | None]
     ) -> Found:
         """A head's search: near the predicted face while the head is followed and its face was
         found lately; else on the whole frame (for faces too small for it, see ``small_faces``),
         or, for a face last seen too small for that, around where it was."""
         assert self.finder is not None
-        state = predicted(self.face_misses)
-        if state is not None:
-            return self.finder.near(image, FACE_ON_HEAD.box(state), parameters.face_search_reach)
+        face = predicted(self.face_misses)
+        if face is not None:
+            return self.finder.near(image, face, parameters.face_search_reach)
         self.face_misses = 0
         if self.last_face is not None and self.last_face[2] < SMALLEST_FACE_IN_FRAME:
             return self.finder.near(image, self.last_face, SEARCH_REACH)

@@ -43,7 +43,7 @@ import numpy as np
 from human_tracker.vision.boxes import Box, box_centre, centre_within
 from human_tracker.vision.evidence import Evidence
 from human_tracker.vision.face_finder import FaceFinder
-from human_tracker.vision.faces import FACE_ON_HEAD, FaceDetector, face_detector_available
+from human_tracker.vision.faces import FaceDetector, face_detector_available
 from human_tracker.vision.lifecycle import LOST
 from human_tracker.vision.outcomes import TargetResult, TrackedTarget, primary_target, targets_line
 from human_tracker.vision.slots import Slot
@@ -233,7 +233,7 @@ class PersonTracker:
                 if self.hands_handed_faces:
                     faces[slot.person] = self._face_of(tracker, result)
                 if result.tracking:
-                    followed[slot.person] = FACE_ON_HEAD.box(result.estimate.state)
+                    followed[slot.person] = tracker.face_place.relation.box(result.estimate.state)
                     if tracker.anchor.face_relation is not None:
                         faced.add(slot.person)
             else:
@@ -383,4 +383,4 @@ class PersonTracker:
         """Where the person's face is (x, y, w, h, camera pixels): where the head's contour puts it
         while a face has just been found on it, else None (a head that slid onto the raised arm
         would send the hand to the face): the hand's own detector looks then."""
-        return FACE_ON_HEAD.box(result.estimate.state) if result.tracking and head.has_fresh_face else None
+        return head.face_place.relation.box(result.estimate.state) if result.tracking and head.has_fresh_face else None

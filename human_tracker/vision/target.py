@@ -28,7 +28,13 @@ from typing import NamedTuple
 
 import numpy as np
 
-from human_tracker.vision.anchoring import UNCONFIRMED_FRAMES, face_and_neck, face_on, restart_on_face
+from human_tracker.vision.anchoring import (
+    UNCONFIRMED_FRAMES,
+    could_be_own_faces,
+    face_and_neck,
+    face_on,
+    restart_on_face,
+)
 from human_tracker.vision.appearance import AppearanceModel
 from human_tracker.vision.boxes import Box, BoxRelation, centre_within
 from human_tracker.vision.evidence import Cues, Evidence, WorkingFrame, working_cues
@@ -130,7 +136,7 @@ class TargetTracker(Track):
         appearance = self._appearance_term(frame.bins)
         estimate = None
         if self.filter.initialised:
-            estimate = self._filter_step(cues, appearance, proposals.states, **self._skin_draws())
+            estimate = self._filter_step(cues, appearance, self._drawing(proposals.states), **self._skin_draws())
         # 4. (Re)start.
         estimate, face_found, appearance, initialised = self._restart_on_faces(
             proposals, frame.bins, cues, estimate, appearance
@@ -195,7 +201,8 @@ class TargetTracker(Track):
         head_faces = detections if p.proposals == 'faces' else None
         if head_faces and exclude:
             head_faces = detections = [d for d in head_faces if not any(centre_within(d.box, b) for b in exclude)]
-        states = np.array([FACE_ON_HEAD.state(d.box) for d in head_faces]) if head_faces else None
+        place = self.face_place.relation
+        states = np.array([place.state(d.box) for d in head_faces]) if head_faces else None
         kept_off = [*exclude, *avoided]
         if p.avoid_faces and self.faces.last_face is not None:
             kept_off.append(face_and_neck(self.faces.last_face))
@@ -216,6 +223,19 @@ class TargetTracker(Track):
         evidence, scale = cues.evidence, self.scale
         return self.filter.step(cues.edges, motion, skin, appearance, states, evidence=evidence, scale=scale, **draws)
 
+    def _drawing(self, states: np.ndarray | None) -> np.ndarray | None:
+        """Of the proposals' ``states``, those that draw particles and centre the detection term.
+        While a head holds (TRACKING, not weak) with its own face fresh, only the faces that could
+        be that one (:func:`~.anchoring.could_be_own_faces`): another person's face near by is no
+        evidence of this head, and particles drawn onto that person's head and shoulders, which
+        fit as well, would carry the filter there."""
+        fresh = self._fresh_face()
+        holding = self.status == TRACKING and self.weak_frames == 0
+        if states is None or self.parameters.proposals != 'faces' or fresh is None or not holding:
+            return states
+        own = states[could_be_own_faces(states, fresh, self.face_place.relation)]
+        return own if len(own) else None
+
     def _restart_on_faces(
         self,
         proposals: _Proposals,
@@ -230,7 +250,7 @@ class TargetTracker(Track):
         looks like it (the light may have changed)."""
         p = self.parameters
         faces, states = proposals.head_faces, proposals.states
-        face = None if estimate is None or not faces else face_on(faces, estimate.state)
+        face = None if estimate is None or not faces else face_on(faces, estimate.state, self.face_place.relation)
         restart = None if not faces else self._restart_on_face(states, face, estimate, appearance)
         if restart is not None:
             self.filter.initialise(states[restart])
@@ -307,6 +327,8 @@ class TargetTracker(Track):
         self.steady_frames = 0 if weak else self.steady_frames + 1
         if not weak and self.status == TRACKING:
             self.usual_fit.add(estimate.confidence)
+            if face is not None and not initialised:  # a restart put the contour on the face's place
+                self.face_place.add(face.box, state)
         if not weak and self.status == TRACKING and bins is not None:
             if self.appearance is not None:
                 self.appearance.adapt(bins, state, p.adaptation_rate)
@@ -371,14 +393,16 @@ class TargetTracker(Track):
         if shake is not None:
             self.filter.follow_camera(shake)
 
-    def _predicted_face(self, face_misses: int) -> np.ndarray | None:
-        """The state around whose face a head's detector looks: the predicted one while the head
-        is followed, not weak, and its face was missed fewer times than it tolerates (a head
-        found by itself is a head by its face: once; one started from a box:
-        ``SEARCH_AFTER_MISSES``); None: search the frame."""
+    def _predicted_face(self, face_misses: int) -> Box | None:
+        """Where a head's detector looks for its face: on the predicted contour (its
+        :class:`~.anchoring.FacePlace`) while the head is followed, not weak, and its face was
+        missed fewer times than it tolerates (a head found by itself is a head by its face:
+        once; one started from a box: ``SEARCH_AFTER_MISSES``); None: search the frame."""
         tracked = self.status == TRACKING and self.filter.particles is not None and self.weak_frames == 0
         patience = SEARCH_AFTER_MISSES if self.started_from_box else 1
-        return self.filter.particles.mean(axis=0) if tracked and face_misses < patience else None
+        if not tracked or face_misses >= patience:
+            return None
+        return self.face_place.relation.box(self.filter.particles.mean(axis=0))
 
     def _carry(self, faces: list[Detection]) -> list[Detection]:
         """Faces found on the frame before, where this frame's prediction puts them."""
@@ -412,6 +436,7 @@ class TargetTracker(Track):
             fresh_face=self._fresh_face(),
             lost_appearance_distance=self.parameters.lost_appearance_distance,
             confirmed=self.frames_without_own_face < UNCONFIRMED_FRAMES,
+            place=self.face_place.relation,
         )
 
     def _skin_draws(self) -> dict[str, object]:

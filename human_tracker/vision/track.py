@@ -14,7 +14,7 @@ from functools import partial
 
 import numpy as np
 
-from human_tracker.vision.anchoring import FRESH_FACE_FRAMES, BoxAnchor
+from human_tracker.vision.anchoring import FRESH_FACE_FRAMES, BoxAnchor, FacePlace
 from human_tracker.vision.appearance import AppearanceModel
 from human_tracker.vision.boxes import Box, BoxRelation
 from human_tracker.vision.camera_motion import CameraShake
@@ -55,6 +55,7 @@ class Track:
     finest_scale: float | None = field(default=None, init=False)
     appearance: AppearanceModel | None = field(default=None, init=False)
     anchor: BoxAnchor = field(default_factory=BoxAnchor, init=False)
+    face_place: FacePlace = field(default_factory=FacePlace, init=False)
     faces: FaceSchedule = field(init=False)
     frames_without_own_face: int = field(default=0, init=False)
     # The edge fit of its steady frames, what a weak frame falls below.
@@ -133,6 +134,7 @@ class Track:
         self.faces.drop_pending()  # its faces belong to the frame before the box
         self.appearance = None
         self.face_look.clear()
+        self.face_place.clear()
         self.status = transition(self.status, Event.START)
         self.weak_frames = 0
 
@@ -157,6 +159,7 @@ class Track:
         self.started_from_box = False
         self.facing_votes.clear()
         self.face_look.clear()
+        self.face_place.clear()
 
     def frame_settings(self, frame_width: int) -> FrameSettings:
         """What this track's working frame of a frame ``frame_width`` pixels wide depends on."""

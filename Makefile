@@ -90,7 +90,7 @@ bench: $(STAMP) $(CONTRIB)
 # Every recorded run (bags and real sequences, seeds 0-4) gives the poses recorded in
 # test/data/pose_hashes.json: a refactor's proof that it changed nothing (about 25 minutes).
 regression: $(STAMP)
-	$(PY) -m human_tracker.evaluation.regression check
+	$(PY) -m human_tracker.evaluation.regression check --jobs 2
 
 # Issue-7 soak: 100,000 looped frames through the pipeline's nodes; memory and accounting.
 soak: $(STAMP)

@@ -12,8 +12,8 @@ with (numba compiles for the host, whose instructions round differently; OpenCV'
 differ in their filters), so the record names them (:func:`platform`); elsewhere, record
 again from the commit before a change.
 
-    python -m human_tracker.evaluation.regression record --out test/data/pose_hashes.json
-    python -m human_tracker.evaluation.regression check --fixture test/data/pose_hashes.json
+    python -m human_tracker.evaluation.regression record --jobs 2
+    python -m human_tracker.evaluation.regression check --fixture test/data/pose_hashes.json --jobs 2
 """
 
 from __future__ import annotations
@@ -24,6 +24,8 @@ import json
 import sys
 import tempfile
 from collections.abc import Iterable, Iterator
+from concurrent.futures import ProcessPoolExecutor
+from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -114,25 +116,32 @@ def _track(run: Run, out: Path) -> dict[str, object]:
     }
 
 
-def record(selected: Iterable[Run]) -> dict[str, dict[str, object]]:
-    """Each run's pose hash and precision, by :attr:`Run.key`."""
-    found = {}
+def _track_apart(run: Run) -> dict[str, object]:
     with tempfile.TemporaryDirectory() as scratch:
-        for run in selected:
-            found[run.key] = _track(run, Path(scratch) / 'out')
-            print(f'{run.key}: {found[run.key]}', file=sys.stderr, flush=True)
+        return _track(run, Path(scratch) / 'out')
+
+
+def record(selected: Iterable[Run], jobs: int = 1) -> dict[str, dict[str, object]]:
+    """Each run's pose hash and precision, by :attr:`Run.key`, ``jobs`` runs at a time (each
+    in a process of its own: a run's poses do not depend on the others)."""
+    selected = list(selected)
+    found = {}
+    with ProcessPoolExecutor(jobs) if jobs > 1 else nullcontext() as pool:
+        results = pool.map(_track_apart, selected) if pool is not None else map(_track_apart, selected)
+        for run, result in zip(selected, results, strict=True):
+            found[run.key] = result
+            print(f'{run.key}: {result}', file=sys.stderr, flush=True)
     return found
 
 
-def check(fixture: dict[str, dict[str, object]], selected: Iterable[Run]) -> list[str]:
+def check(fixture: dict[str, dict[str, object]], selected: Iterable[Run], jobs: int = 1) -> list[str]:
     """The runs of ``selected`` whose poses differ from ``fixture`` (a missing key is a difference)."""
     differ = []
-    for run in selected:
-        found = record([run])[run.key]
-        expected = fixture.get(run.key)
+    for key, found in record(selected, jobs).items():
+        expected = fixture.get(key)
         if expected is None or expected['sha256'] != found['sha256']:
             before = None if expected is None else expected['precision_20px']
-            differ.append(f'{run.key}: precision {before} -> {found["precision_20px"]}')
+            differ.append(f'{key}: precision {before} -> {found["precision_20px"]}')
     return differ
 
 
@@ -141,6 +150,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('command', choices=('record', 'check'))
     parser.add_argument('--fixture', type=Path, default=REPO / 'test' / 'data' / 'pose_hashes.json')
     parser.add_argument('--only', default='', help='only runs whose key contains this text')
+    parser.add_argument('--jobs', type=int, default=1, help='runs at a time')
     options = parser.parse_args(argv)
     selected = [run for run in runs() if options.only in run.key]
     known = json.loads(options.fixture.read_text()) if options.fixture.exists() else {}
@@ -148,13 +158,13 @@ def main(argv: list[str] | None = None) -> int:
         # Recorded runs join (or replace) those already in the fixture, on the same platform.
         if known.get('platform', platform()) != platform():
             known = {}
-        found = {'platform': platform(), 'runs': known.get('runs', {}) | record(selected)}
+        found = {'platform': platform(), 'runs': known.get('runs', {}) | record(selected, options.jobs)}
         options.fixture.write_text(json.dumps(found, indent=1, sort_keys=True) + '\n')
         return 0
     if known.get('platform') != platform():
         print(f'the record was made on {known.get("platform")}, this is {platform()}: record it again')
         return 2
-    differ = check(known['runs'], selected)
+    differ = check(known['runs'], selected, options.jobs)
     print('\n'.join(differ) or f'{len(selected)} runs: the same poses')
     return 1 if differ else 0
 

@@ -13,6 +13,7 @@ from conftest import REAL_DATA
 
 from human_tracker.evaluation.facing import LABELS, facing_scores, read_facing, read_labels
 from human_tracker.vision.appearance import colour_bins
+from human_tracker.vision.boxes import BoxRelation
 from human_tracker.vision.faces import FACE_ON_HEAD, Detection, FaceDetector, face_detector_available
 from human_tracker.vision.facing import (
     SMALLEST_VISIBLE_FACE,
@@ -48,13 +49,13 @@ def test_a_run_that_misses_a_face_where_it_still_looks_like_one_says_nothing() -
     assert facing_after_run(face, visible=True, looks_like_face=True) == TOWARD
 
 
-def _head(face_colour: tuple[int, int, int]) -> tuple[np.ndarray, np.ndarray]:
-    """A frame's colour bins with a head at a state [x, y, s, θ] whose face's place is painted
-    ``face_colour`` (BGR, with some noise) on a grey-blue background."""
+def _head(face_colour: tuple[int, int, int], place: BoxRelation = FACE_ON_HEAD) -> tuple[np.ndarray, np.ndarray]:
+    """A frame's colour bins with a head at a state [x, y, s, θ] whose face's ``place`` is
+    painted ``face_colour`` (BGR, with some noise) on a grey-blue background."""
     rng = np.random.default_rng(0)
     image = np.full((120, 160, 3), (120, 90, 60), np.uint8)
     state = np.array([80.0, 50.0, 40.0, 0.0])
-    x, y, w, h = (int(v) for v in FACE_ON_HEAD.box(state))
+    x, y, w, h = (int(v) for v in place.box(state))
     patch = np.array(face_colour, np.int16) + rng.integers(-12, 13, (h, w, 3))
     image[y : y + h, x : x + w] = np.clip(patch, 0, 255).astype(np.uint8)
     return colour_bins(image), state
@@ -72,6 +73,21 @@ def test_the_face_look_is_the_face_seen_toward_the_camera_not_the_back_of_the_he
     assert not look.still_there(face_bins, state + np.array([60.0, 0.0, 0.0, 0.0]), 0.5)  # off the face
     look.clear()
     assert not look.still_there(face_bins, state, 0.5)
+
+
+def test_the_face_look_is_learnt_and_compared_where_the_head_s_face_sits() -> None:
+    """A head whose face sits lower and wider than on the generic head (its ``FacePlace``): the
+    look learnt there finds the face there, not a face-coloured patch at the generic place."""
+    skin = (110, 140, 200)
+    state = np.array([80.0, 50.0, 40.0, 0.0])
+    x, y, w, h = FACE_ON_HEAD.box(state)
+    own = BoxRelation.of((x - 0.1 * w, y + 0.3 * h, 1.2 * w, 1.2 * h), state)
+    face_bins, _ = _head(skin, own)
+    elsewhere_bins, _ = _head(skin)
+    look = FaceLook()
+    look.seen(face_bins, state, own)
+    assert look.still_there(face_bins, state, 0.5)
+    assert not look.still_there(elsewhere_bins, state, 0.5)
 
 
 def test_a_face_is_visible_when_big_textured_and_in_the_frame() -> None:

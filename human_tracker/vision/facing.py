@@ -23,7 +23,7 @@ from enum import StrEnum
 import numpy as np
 
 from human_tracker.vision.appearance import AppearanceModel
-from human_tracker.vision.boxes import Box
+from human_tracker.vision.boxes import Box, BoxRelation
 from human_tracker.vision.faces import FACE_ON_HEAD, Detection
 
 __all__ = [
@@ -96,19 +96,22 @@ def facing_after_run(face: Detection | None, visible: bool, looks_like_face: boo
 class FaceLook:
     """What a followed head's face looked like where detector runs found it toward the camera:
     the colour histograms (:class:`~human_tracker.vision.appearance.AppearanceModel`) of the
-    face's place on the contour (:data:`~human_tracker.vision.faces.FACE_ON_HEAD`), their mean
+    face's place on the contour (the head's :class:`~human_tracker.vision.anchoring.FacePlace`;
+    :data:`~human_tracker.vision.faces.FACE_ON_HEAD` by default), their mean
     over such runs, the last :data:`LOOK_MEMORY` weighing most. The back of a head (hair) and a
     hand or a book before the face do not look like it; a face the detector missed does."""
 
     model: AppearanceModel | None = None
     runs: int = 0
 
-    def seen(self, bins: np.ndarray, state: np.ndarray) -> None:
-        """A run found the face toward the camera on the head at ``state`` (pixels of ``bins``)."""
+    def seen(self, bins: np.ndarray, state: np.ndarray, place: BoxRelation = FACE_ON_HEAD) -> None:
+        """A run found the face toward the camera on the head at ``state`` (pixels of ``bins``),
+        where ``place`` puts the face on the contour."""
         self.runs += 1
         if self.model is None:
-            self.model = AppearanceModel.learn(bins, state, FACE_ON_HEAD)
+            self.model = AppearanceModel.learn(bins, state, place)
         else:
+            self.model.region = place  # where the head's face is now known to sit
             self.model.adapt(bins, state, max(1.0 / self.runs, 1.0 / LOOK_MEMORY))
 
     def still_there(self, bins: np.ndarray, state: np.ndarray, limit: float) -> bool:

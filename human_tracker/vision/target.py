@@ -39,7 +39,7 @@ from human_tracker.vision.appearance import AppearanceModel
 from human_tracker.vision.boxes import Box, BoxRelation, centre_within
 from human_tracker.vision.evidence import Cues, Evidence, WorkingFrame, working_cues
 from human_tracker.vision.face_schedule import SEARCH_AFTER_MISSES, carry_faces
-from human_tracker.vision.faces import FACE_ON_HEAD, Detection
+from human_tracker.vision.faces import Detection
 from human_tracker.vision.facing import Facing, face_visible, facing_after_run
 from human_tracker.vision.lifecycle import LOST, TRACKING, Event, recovers, transition, weak_frame
 from human_tracker.vision.outcomes import TargetResult
@@ -358,16 +358,16 @@ class TargetTracker(Track):
     def _vote_facing(self, face: Detection | None, frame: WorkingFrame, state: np.ndarray) -> None:
         """A detector run's verdict of where the head at ``state`` (working pixels) faces; a face
         found toward the camera is what its place on the head looks like (:class:`~.facing.FaceLook`)."""
-        bins = frame.bins
+        bins, place = frame.bins, self.face_place.relation
         verdict = facing_after_run(
             face,
-            face is None and face_visible(frame.grey, FACE_ON_HEAD.box(state)),
+            face is None and face_visible(frame.grey, place.box(state)),
             face is None
             and bins is not None
             and self.face_look.still_there(bins, state, self.parameters.lost_appearance_distance),
         )
         if verdict is Facing.TOWARD and bins is not None:
-            self.face_look.seen(bins, state)
+            self.face_look.seen(bins, state, place)
         if verdict is not None:
             self.facing_votes.add(verdict)
 

@@ -139,9 +139,10 @@ class FaceDetector:
         A HOG detector's box is quantised by its cells and pyramid levels: the same face found
         in two crops of slightly different scale moves by a tenth of its width. Where one box
         is remembered for the rest of a track (how a start box sits on the face), the median
-        removes most of that jitter. Only the face itself is looked for: a region twice its size
-        (``reach`` 1) is scanned in a third of the time of a head's search around it (reach 2),
-        so a track's first face does not hold its frame up (about 30 ms on a core).
+        removes most of that jitter. Only the face itself is looked for (``reach`` 1: a region
+        twice its size, not a head's search region around it): the frame a track takes its
+        first face on waits for these runs
+        (docs/decisions/first-face-localised-around-itself.md).
         """
         boxes = [face]
         for factor in np.geomspace(PYRAMID_STEP**-0.5, PYRAMID_STEP**0.5, zooms):

@@ -27,6 +27,7 @@ from human_tracker.evaluation.identity import identity_scores, one_track
 from human_tracker.evaluation.metrics import Box, summarise
 from human_tracker.evaluation.plots import plot_run
 from human_tracker.io.sequences import open_sequence
+from human_tracker.vision.background import BackgroundModel
 from human_tracker.vision.cues import MOTION_CUES, CueStages, build_people
 from human_tracker.vision.outcomes import state_words
 from human_tracker.vision.people import TrackedTarget, kinds_of, targets_line
@@ -266,6 +267,7 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
         'frames_without_colour': grey_frames,
         'warnings': sequence.warnings,
         'frames_motion_set_aside': motion_set_aside,
+        'background_restarts': stages.motion.restarts if isinstance(stages.motion, BackgroundModel) else 0,
         'init': list(options.init) if options.init is not None else 'motion',
         'frames': len(truth),
         'frames_processed': processed,

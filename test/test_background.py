@@ -134,3 +134,58 @@ def test_foreground_on_the_real_vtest_sequence() -> None:
     assert index > 700
     assert 0.003 < fractions.mean() < 0.08  # people are a few percent of the view
     assert np.mean(blob_counts) >= 2  # several walkers are segmented
+
+
+def _flooding_scene(frames: int = 30) -> list[np.ndarray]:
+    """A textured still scene with a square walking across; the exposure drops by a fifth at
+    frame 10 (a camera's automatic exposure)."""
+    rng = np.random.default_rng(3)
+    scene = cv2.GaussianBlur(rng.integers(40, 220, (60, 80)).astype(np.uint8), (5, 5), 0)
+    out = []
+    for k in range(frames):
+        frame = scene.copy()
+        frame[20:35, 5 + 2 * k : 20 + 2 * k] = 250
+        out.append((frame * (0.8 if k >= 10 else 1.0)).astype(np.uint8))
+    return out
+
+
+def test_a_flooded_model_starts_again_from_the_frame() -> None:
+    """After an exposure jump every pixel differs from the reference; the paper's model (the
+    default) never learns them again (the mask stays flooded); with ``flooded_frames`` 5 the
+    model starts again after five flooded masks and then finds the moving square alone."""
+    paper = BackgroundModel()
+    model = BackgroundModel(BackgroundParameters(flooded_frames=5))
+    shares, paper_shares = [], []
+    for frame in _flooding_scene():
+        shares.append(np.mean(model.apply(frame) > 0))
+        paper_shares.append(np.mean(paper.apply(frame) > 0))
+    assert min(paper_shares[10:]) > 0.5  # flooded for good
+    assert all(s > 0.5 for s in shares[10:15])  # the five flooded masks, returned as they are
+    assert max(shares[17:]) < 0.15 and min(shares[17:]) > 0.02  # the square (4 % of the frame) and its ghost
+    assert model.restarts == 1 and paper.restarts == 0
+    with pytest.raises(ValueError, match='flooded_fraction'):
+        BackgroundParameters(flooded_fraction=0.0).validate()
+
+
+CAP_AND_BOOK = REAL_DATA / 'cap_and_book' / 'img'
+
+
+@pytest.mark.skipif(not CAP_AND_BOOK.exists(), reason=f'{CAP_AND_BOOK} not available')
+def test_the_mask_recovers_from_a_real_exposure_jump() -> None:
+    """cap_and_book: the camera's exposure jumps at frame 369 (a book lifted before the lens).
+    The paper's model calls most of every later frame foreground; restarted after five
+    flooded masks, the model isolates the man again a few frames later."""
+    paper = BackgroundModel()
+    model = BackgroundModel(BackgroundParameters(flooded_frames=5))
+    shares, paper_shares = [], []
+    for path in sorted(CAP_AND_BOOK.iterdir()):
+        frame = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)  # 320x240, the working width
+        shares.append(np.mean(model.apply(frame) > 0))
+        paper_shares.append(np.mean(paper.apply(frame) > 0))
+    after = slice(380, None)
+    print(
+        f'frames over half foreground: {sum(s > 0.5 for s in shares)} (paper {sum(s > 0.5 for s in paper_shares)}); '
+        f'median after 380 {np.median(shares[after]):.2f} (paper {np.median(paper_shares[after]):.2f})'
+    )
+    assert np.median(paper_shares[after]) > 0.6
+    assert np.median(shares[after]) < 0.5 and sum(s > 0.5 for s in shares) < 60

@@ -47,6 +47,10 @@ BACKGROUND_PARAMETERS = (
     ParameterSpec('opening_radius', 'Morphological opening radius, pixels (removes isolated detections).', 0, 50),
     ParameterSpec('closing_radius', 'Morphological closing radius, pixels (fills holes).', 0, 50),
     ParameterSpec('compensate_camera', "Carry the reference frame with the camera's own image motion."),
+    ParameterSpec(
+        'flooded_fraction', 'Share of the frame above which a mask is flooded (the model no longer fits).', 1e-3, 1.0
+    ),
+    ParameterSpec('flooded_frames', 'Flooded masks in a row after which the model restarts; 0: never.', 0, 1000),
 )
 
 
@@ -94,7 +98,8 @@ class BackgroundNode(ImageStage):
         return mask
 
     def diagnostics_state(self) -> tuple[str, dict[str, Any]]:
-        return 'OK', {'model': 'empty' if self.model.mean is None else 'learning'}
+        model = 'empty' if self.model.mean is None else 'learning'
+        return 'OK', {'model': model, 'restarts_after_flooding': self.model.restarts}
 
 
 def main(args: list[str] | None = None) -> int:

@@ -18,6 +18,12 @@ the reference frame and then left (a person standing there when the node started
 foreground for ever: a "ghost". ``foreground_learning_rate`` (0 by default, the paper's
 rule) optionally updates target pixels too, much more slowly than background ones, so that
 ghosts fade; it also slowly absorbs a person who stands still for long.
+
+The same rule never lets the model recover once most of the frame differs from it: a camera's
+automatic exposure jumps (cap_and_book, frame 369), the light changes, the camera moves
+further than its compensation follows. The mask is then *flooded* (more than
+``flooded_fraction`` of the frame) and isolates nothing; with ``flooded_frames`` set, after
+that many such masks in a row the model starts again from the frame, as on the first one.
 """
 
 from __future__ import annotations
@@ -55,6 +61,9 @@ class BackgroundParameters:
             frames, the last foreground left out) before each test, so that a turning or
             swaying camera does not make the whole scene foreground. Pixels that come into
             view start afresh. On a fixed camera the estimate is the identity.
+        flooded_fraction: Share of the frame above which a mask is flooded, in (0, 1].
+        flooded_frames: Flooded masks in a row after which the model starts again from the
+            frame; 0 (the default) never does: the paper's model.
     """
 
     learning_rate: float = 0.05
@@ -67,6 +76,8 @@ class BackgroundParameters:
     opening_radius: int = 1
     closing_radius: int = 3
     compensate_camera: bool = True
+    flooded_fraction: float = 0.5
+    flooded_frames: int = 0
 
     def validate(self) -> None:
         """Raise ValueError naming the first parameter out of its range."""
@@ -84,6 +95,8 @@ class BackgroundParameters:
             ),
             (self.initial_variance > 0, f'initial_variance must be > 0, got {self.initial_variance}'),
             (self.opening_radius >= 0 and self.closing_radius >= 0, 'morphology radii must be >= 0'),
+            (0.0 < self.flooded_fraction <= 1.0, f'flooded_fraction must be in (0, 1], got {self.flooded_fraction}'),
+            (self.flooded_frames >= 0, f'flooded_frames must be >= 0, got {self.flooded_frames}'),
         ]
         for ok, message in checks:
             if not ok:
@@ -154,7 +167,9 @@ class BackgroundModel:
     returns the cleaned foreground mask. The fields are the model's whole state;
     ``camera_motion`` is the camera's image motion from the previous frame to the last one
     applied (``(2, 3)``, :mod:`~human_tracker.vision.camera_motion`, in that frame's pixels),
-    None where it is not known (``compensate_camera`` off, the first frame, a blank frame).
+    None where it is not known (``compensate_camera`` off, the first frame, a blank frame);
+    ``flooded`` counts the flooded masks in a row and ``restarts`` the times the model started
+    again from a frame because of them.
     """
 
     parameters: BackgroundParameters = field(default_factory=BackgroundParameters)
@@ -164,6 +179,8 @@ class BackgroundModel:
     foreground: np.ndarray | None = None
     camera: CameraMotion = field(default_factory=CameraMotion)
     camera_motion: np.ndarray | None = None
+    flooded: int = 0
+    restarts: int = 0
 
     def __post_init__(self) -> None:
         self.parameters.validate()
@@ -175,6 +192,7 @@ class BackgroundModel:
         self.previous = None
         self.foreground = None
         self.camera_motion = None
+        self.flooded = 0
         self.camera.reset()
 
     def apply(self, gray: np.ndarray) -> np.ndarray:
@@ -184,7 +202,8 @@ class BackgroundModel:
             gray: ``(H, W)`` intensity image (uint8 or float).
 
         Returns:
-            ``(H, W) uint8`` foreground mask, 255 on target pixels, 0 on background.
+            ``(H, W) uint8`` foreground mask, 255 on target pixels, 0 on background; a flooded
+            mask is returned as it is, the model starting again from ``gray`` after it.
         """
         p = self.parameters
         # uint8 frames go to the kernel as they are: a float copy of the frame costs more than the test.
@@ -192,8 +211,7 @@ class BackgroundModel:
         self.camera_motion = None
         if self.mean is None or self.variance is None or self.mean.shape != frame.shape:
             # The first frame (or a new image size) is taken as background.
-            self.mean = frame.astype(np.float32)
-            self.variance = np.full(frame.shape, p.initial_variance, dtype=np.float32)
+            self._start_from(frame)
             self.previous = frame if frame.dtype == np.uint8 else None
             self.foreground = None
             self.camera.reset()
@@ -218,7 +236,19 @@ class BackgroundModel:
             mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, disk(p.closing_radius))
         self.previous = frame if frame.dtype == np.uint8 else None
         self.foreground = mask
+        self.flooded = self.flooded + 1 if np.count_nonzero(mask) > p.flooded_fraction * mask.size else 0
+        if p.flooded_frames and self.flooded >= p.flooded_frames:
+            # The reference no longer describes the scene, and target pixels are never learnt:
+            # left alone it would stay flooded for good.
+            self._start_from(frame)
+            self.flooded = 0
+            self.restarts += 1
         return mask
+
+    def _start_from(self, frame: np.ndarray) -> None:
+        """Take ``frame`` as the reference, every pixel at ``initial_variance``."""
+        self.mean = frame.astype(np.float32)
+        self.variance = np.full(frame.shape, self.parameters.initial_variance, dtype=np.float32)
 
     def _follow_camera(self, frame: np.ndarray) -> None:
         """Carry the reference frame with the camera's motion from the previous frame to ``frame``."""

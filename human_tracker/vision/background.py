@@ -20,8 +20,8 @@ rule) optionally updates target pixels too, much more slowly than background one
 ghosts fade; it also slowly absorbs a person who stands still for long.
 
 The same rule never lets the model recover once most of the frame differs from it: a camera's
-automatic exposure jumps (cap_and_book, frame 369), the light changes, the camera moves
-further than its compensation follows. The mask is then *flooded* (more than
+automatic exposure jumps, the light changes, the camera moves further than its compensation
+follows. The mask is then *flooded* (more than
 ``flooded_fraction`` of the frame) and isolates nothing; with ``flooded_frames`` set, after
 that many such masks in a row the model starts again from the frame, as on the first one.
 """
@@ -236,13 +236,14 @@ class BackgroundModel:
             mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, disk(p.closing_radius))
         self.previous = frame if frame.dtype == np.uint8 else None
         self.foreground = mask
-        self.flooded = self.flooded + 1 if np.count_nonzero(mask) > p.flooded_fraction * mask.size else 0
-        if p.flooded_frames and self.flooded >= p.flooded_frames:
-            # The reference no longer describes the scene, and target pixels are never learnt:
-            # left alone it would stay flooded for good.
-            self._start_from(frame)
-            self.flooded = 0
-            self.restarts += 1
+        if p.flooded_frames:
+            self.flooded = self.flooded + 1 if np.count_nonzero(mask) > p.flooded_fraction * mask.size else 0
+            if self.flooded >= p.flooded_frames:
+                # The reference no longer describes the scene, and target pixels are never
+                # learnt: left alone it would stay flooded for good.
+                self._start_from(frame)
+                self.flooded = 0
+                self.restarts += 1
         return mask
 
     def _start_from(self, frame: np.ndarray) -> None:

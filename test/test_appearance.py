@@ -95,6 +95,17 @@ def test_adaptation_blends_the_reference() -> None:
     assert model.reference[0, bins[0, 199]] == pytest.approx(0.25)
 
 
+def test_the_colours_beside_a_contour_that_left_them() -> None:
+    """The reference learnt on the red half: beside a contour just across the border into the
+    blue half, red is in view within two head widths; from farther into the blue, it is not."""
+    bins = colour_bins(_two_colour_image())
+    model = AppearanceModel.learn(bins, np.array([50.0, 100.0, 20.0, 0.0]), UNIT)
+    assert model.distance_beside(bins, np.array([120.0, 100.0, 20.0, 0.0])) == pytest.approx(0.0, abs=1e-6)
+    assert model.distance_beside(bins, np.array([170.0, 100.0, 20.0, 0.0]), reach=2) == pytest.approx(1.0)
+    # Turned a quarter round, the steps across go up and down the image: no red in reach.
+    assert model.distance_beside(bins, np.array([145.0, 100.0, 20.0, np.pi / 2]), reach=2) == pytest.approx(1.0)
+
+
 def test_box_relation_round_trip() -> None:
     state = np.array([100.0, 80.0, 50.0, 0.3])
     box = (90.0, 70.0, 30.0, 36.0)

@@ -69,7 +69,9 @@ def _estimate(confidence: float, appearance_distance: float = 0.2, motion_suppor
 
 def test_a_frame_is_weak_by_the_silhouettes_evidence_and_a_change_of_colour_alone_is_not() -> None:
     """Without a motion mask, colours unlike the target's make a frame weak only with the edge
-    fit fallen below its usual; with a mask (a way back through the moving region) they do."""
+    fit fallen below its usual; with a mask (a way back through the moving region) they do
+    while the target's colours are in view beside the contour, not when they are gone from
+    around it (the person turned round)."""
     p = LossParameters(lost_confidence=0.3, lost_motion_support=0.2, lost_appearance_distance=0.5, lost_fit_drop=0.25)
     usual = UsualFit()
     usual.add(0.8)  # weak below 0.6 where nothing else vouches for the contour
@@ -86,3 +88,8 @@ def test_a_frame_is_weak_by_the_silhouettes_evidence_and_a_change_of_colour_alon
     assert not weak_frame(_estimate(0.55), p, with_mask, True, usual)
     assert weak_frame(_estimate(0.55, appearance_distance=0.8), p, with_mask, True, usual)
     assert not weak_frame(_estimate(0.55, appearance_distance=0.8), p, with_mask, False, usual)  # appearance unknown
+    # The colours gone from around a contour that fits: the target itself changed.
+    gone, beside = (lambda: False), (lambda: True)
+    assert not weak_frame(_estimate(0.75, appearance_distance=0.8), p, with_mask, True, usual, gone)
+    assert weak_frame(_estimate(0.75, appearance_distance=0.8), p, with_mask, True, usual, beside)
+    assert weak_frame(_estimate(0.55, appearance_distance=0.8), p, with_mask, True, usual, gone)  # the fit fallen too

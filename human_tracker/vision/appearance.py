@@ -226,6 +226,20 @@ class AppearanceModel:
         offsets, kernel, band = _grid(self.parts)
         return _squared_distances(bins, boxes, angles, offsets, kernel, band, self.reference)
 
+    def distance_beside(self, bins: np.ndarray, state: np.ndarray, reach: int = 2) -> float:
+        """The smallest distance D from the reference of the region on contours beside the one at
+        ``state`` [x, y, s, θ] (pixels of ``bins``): moved by whole widths s of the head, up to
+        ``reach`` of them across and one up and down, of the same size and turn. Small when the
+        target's colours are still in view beside the contour: the contour has left them."""
+        steps = np.array([(u, v) for u in range(-reach, reach + 1) for v in (-1, 0, 1) if (u, v) != (0, 0)], float)
+        x, y, s, theta = (float(v) for v in state[:4])
+        c, sn = np.cos(theta), np.sin(theta)
+        states = np.column_stack(
+            [x + s * (c * steps[:, 0] - sn * steps[:, 1]), y + s * (sn * steps[:, 0] + c * steps[:, 1])]
+        )
+        states = np.column_stack([states, np.full(len(steps), s), np.full(len(steps), theta)])
+        return float(np.sqrt(self.squared_distances(bins, states).min()))
+
     def adapt(self, bins: np.ndarray, state: np.ndarray, rate: float) -> None:
         """Blend the histograms at ``state`` into the reference: q ← (1 - rate) q + rate p."""
         current = region_histograms(bins, state, self.region, self.parts)[0]

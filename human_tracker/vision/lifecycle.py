@@ -10,6 +10,7 @@ face or a hypothesis restarts it (:mod:`~human_tracker.vision.target`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum, StrEnum
 from typing import TYPE_CHECKING
@@ -100,7 +101,12 @@ class UsualFit:
 
 
 def weak_frame(
-    estimate: TrackEstimate, parameters: LossParameters, cues: Cues, appearance_known: bool, usual: UsualFit
+    estimate: TrackEstimate,
+    parameters: LossParameters,
+    cues: Cues,
+    appearance_known: bool,
+    usual: UsualFit,
+    colours_beside: Callable[[], bool] = lambda: True,
 ) -> bool:
     """Whether a frame is weak, by the silhouette's own evidence: too few contour points on
     edges (``lost_confidence``), on moving pixels with a motion mask (``lost_motion_support``),
@@ -108,9 +114,12 @@ def weak_frame(
     edge fit fallen ``lost_fit_drop`` below the ``usual`` one with no motion mask to say where
     the person is (the edge fit alone slides onto clutter: a panning camera); or colours unlike
     the target's known appearance (``lost_appearance_distance``) with the fit fallen too, or
-    with a motion mask. Without a mask a change of colour alone is a person turning round, and
-    a head LOST on it would come back only through a face; with one, a lost target comes back
-    through the moving region (:func:`recovers`)."""
+    with a motion mask while ``colours_beside`` says the target's colours are still in view
+    beside the contour (it slid off the target onto something else that moves). A change of
+    colour alone is weak evidence: with the colours gone from around a contour that fits, the
+    target itself changed (a person turned round); and without a mask a head LOST on it would
+    come back only through a face, while with one a lost target comes back through the moving
+    region (:func:`recovers`)."""
     p = parameters
     fallen = usual.below(estimate.confidence, p.lost_fit_drop)
     recoloured = appearance_known and estimate.appearance_distance > p.lost_appearance_distance
@@ -118,7 +127,7 @@ def weak_frame(
         estimate.confidence < p.lost_confidence
         or (cues.motion is not None and estimate.motion_support < p.lost_motion_support)
         or (cues.likelihood_skin is not None and estimate.skin_support < p.lost_skin_support)
-        or (recoloured and (fallen or cues.motion is not None))
+        or (recoloured and (fallen or (cues.motion is not None and colours_beside())))
         or (fallen and cues.motion is None)
     )
 

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from functools import partial
 from typing import NamedTuple
 
 import numpy as np
@@ -322,7 +323,14 @@ class TargetTracker(Track):
         if self.anchor.box_relation is not None:
             estimate = replace(estimate, box=self.anchor.box_relation.box(estimate.state))
         self.reported_state = state
-        weak = on_face or weak_frame(estimate, self.parameters, cues, appearance is not None, self.usual_fit)
+        weak = on_face or weak_frame(
+            estimate,
+            self.parameters,
+            cues,
+            appearance is not None,
+            self.usual_fit,
+            partial(self._colours_beside, bins, state),
+        )
         self.weak_frames = self.weak_frames + 1 if weak else 0
         self.steady_frames = 0 if weak else self.steady_frames + 1
         if not weak and self.status == TRACKING:
@@ -354,6 +362,13 @@ class TargetTracker(Track):
             # Only a size held as long as a loss takes changes the frame's size.
             self._fit_resolution(float(estimate.state[2]), self.scale)
         return estimate
+
+    def _colours_beside(self, bins: np.ndarray | None, state: np.ndarray) -> bool:
+        """Whether the target's colours are in view beside the contour at ``state`` (working
+        pixels; :meth:`~.appearance.AppearanceModel.distance_beside`)."""
+        if bins is None or self.appearance is None:
+            return False
+        return self.appearance.distance_beside(bins, state) <= self.parameters.lost_appearance_distance
 
     def _vote_facing(self, face: Detection | None, frame: WorkingFrame, state: np.ndarray) -> None:
         """A detector run's verdict of where the head at ``state`` (working pixels) faces; a face

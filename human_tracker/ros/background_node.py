@@ -50,7 +50,7 @@ BACKGROUND_PARAMETERS = (
     ParameterSpec(
         'flooded_fraction', 'Share of the frame above which a mask is flooded (the model no longer fits).', 1e-3, 1.0
     ),
-    ParameterSpec('flooded_frames', 'Flooded masks in a row after which the model restarts; 0: never.', 0, 1000),
+    ParameterSpec('flooded_frames', 'Flooded masks in a row after which the model restarts; 0: never.', 5, 1000),
 )
 
 

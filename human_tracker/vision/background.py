@@ -22,8 +22,9 @@ ghosts fade; it also slowly absorbs a person who stands still for long.
 The same rule never lets the model recover once most of the frame differs from it: a camera's
 automatic exposure jumps, the light changes, the camera moves further than its compensation
 follows. The mask is then *flooded* (more than
-``flooded_fraction`` of the frame) and isolates nothing; with ``flooded_frames`` set, after
-that many such masks in a row the model starts again from the frame, as on the first one.
+``flooded_fraction`` of the frame) and isolates nothing; after ``flooded_frames`` such masks
+in a row (0: never, the paper's model) the model starts again from the frame, as on the first
+one.
 """
 
 from __future__ import annotations
@@ -63,7 +64,7 @@ class BackgroundParameters:
             view start afresh. On a fixed camera the estimate is the identity.
         flooded_fraction: Share of the frame above which a mask is flooded, in (0, 1].
         flooded_frames: Flooded masks in a row after which the model starts again from the
-            frame; 0 (the default) never does: the paper's model.
+            frame; 0 never does: the paper's model.
     """
 
     learning_rate: float = 0.05
@@ -77,7 +78,7 @@ class BackgroundParameters:
     closing_radius: int = 3
     compensate_camera: bool = True
     flooded_fraction: float = 0.5
-    flooded_frames: int = 0
+    flooded_frames: int = 5
 
     def validate(self) -> None:
         """Raise ValueError naming the first parameter out of its range."""

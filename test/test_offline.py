@@ -219,8 +219,10 @@ def test_real_sequence_david(tmp_path) -> None:
     print(f'david: precision at 20 px {precision:.3f}, success AUC {auc:.3f}, {summary["fps"]} fps')
     assert summary['frames'] == 462
     assert summary['precision_20px'] >= 0.75
-    # The camera moves with the man: the foreground covers most of nearly every frame.
-    assert summary['frames_motion_set_aside'] >= 400
+    # The camera moves with the man: the foreground floods the frame again and again; each
+    # flooded mask is set aside, and after five in a row the background model starts again.
+    assert summary['background_restarts'] >= 10
+    assert summary['frames_motion_set_aside'] >= 4 * summary['background_restarts']
 
 
 HAND2 = REAL_DATA / 'hand2'

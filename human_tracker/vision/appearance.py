@@ -232,12 +232,10 @@ class AppearanceModel:
         ``reach`` of them across and one up and down, of the same size and turn. Small when the
         target's colours are still in view beside the contour: the contour has left them."""
         steps = np.array([(u, v) for u in range(-reach, reach + 1) for v in (-1, 0, 1) if (u, v) != (0, 0)], float)
-        x, y, s, theta = (float(v) for v in state[:4])
+        s, theta = float(state[2]), float(state[3])
         c, sn = np.cos(theta), np.sin(theta)
-        states = np.column_stack(
-            [x + s * (c * steps[:, 0] - sn * steps[:, 1]), y + s * (sn * steps[:, 0] + c * steps[:, 1])]
-        )
-        states = np.column_stack([states, np.full(len(steps), s), np.full(len(steps), theta)])
+        states = np.tile(np.asarray(state[:4], dtype=np.float64), (len(steps), 1))
+        states[:, :2] += s * steps @ np.array([[c, sn], [-sn, c]])  # the steps turned with the contour
         return float(np.sqrt(self.squared_distances(bins, states).min()))
 
     def adapt(self, bins: np.ndarray, state: np.ndarray, rate: float) -> None:

@@ -116,11 +116,10 @@ def weak_frame(
     the target's known appearance (``lost_appearance_distance``) with the fit fallen too, or
     with a motion mask while ``colours_beside`` says the target's colours are still in view
     beside the contour (it slid off the target onto something else that moves; without the
-    callable, taken to be in view). A change of
-    colour alone is weak evidence: with the colours gone from around a contour that fits, the
-    target itself changed (a person turned round); and without a mask a head LOST on it would
-    come back only through a face, while with one a lost target comes back through the moving
-    region (:func:`recovers`)."""
+    callable, taken to be in view). A change of colour alone is weak evidence: with the
+    colours gone from around a contour that fits, the target itself changed (a person turned
+    round); and without a mask a head LOST on it would come back only through a face, while
+    with one a lost target comes back through the moving region (:func:`recovers`)."""
     p = parameters
     fallen = usual.below(estimate.confidence, p.lost_fit_drop)
     recoloured = appearance_known and estimate.appearance_distance > p.lost_appearance_distance

@@ -12,10 +12,12 @@ import pytest
 from conftest import REAL_DATA
 
 from human_tracker.evaluation.facing import LABELS, facing_scores, read_facing, read_labels
+from human_tracker.offline import TrackOptions, track_sequence
 from human_tracker.vision.appearance import colour_bins
 from human_tracker.vision.boxes import BoxRelation
 from human_tracker.vision.faces import FACE_ON_HEAD, Detection, FaceDetector, face_detector_available
 from human_tracker.vision.facing import (
+    SMALLEST_SCALE_MARGIN,
     SMALLEST_VISIBLE_FACE,
     VOTING_RUNS,
     FaceLook,
@@ -23,7 +25,9 @@ from human_tracker.vision.facing import (
     FacingVotes,
     face_visible,
     facing_after_run,
+    size_known,
 )
+from human_tracker.vision.filter_parameters import TrackerParameters
 
 TOWARD, SIDE, AWAY, UNKNOWN = Facing.TOWARD, Facing.SIDE, Facing.AWAY, Facing.UNKNOWN
 
@@ -100,6 +104,15 @@ def test_a_face_is_visible_when_big_textured_and_in_the_frame() -> None:
     assert not face_visible(dark, (40.0, 40.0, 30.0, 30.0))
 
 
+def test_a_contour_held_at_the_smallest_scale_does_not_say_how_big_its_face_is() -> None:
+    smallest = 24.0
+    assert size_known(30.0, smallest, faces_found=0)
+    assert not size_known(smallest, smallest, faces_found=0)
+    assert not size_known(SMALLEST_SCALE_MARGIN * smallest, smallest, faces_found=0)
+    # Faces found on this head were of a size the detector finds: the bound hides nothing.
+    assert size_known(smallest, smallest, faces_found=1)
+
+
 def test_the_votes_give_most_of_the_last_runs_and_the_latest_on_a_tie() -> None:
     votes = FacingVotes()
     assert votes.facing == UNKNOWN
@@ -151,3 +164,20 @@ def test_dlib_tells_a_turned_face_from_a_frontal_one_on_real_frames() -> None:
         box = tuple(float(v) for v in truth[index].split(','))
         (face,) = detector.detect_near(grey, box)
         assert facing_after_run(face, face_visible(grey, face.box)) == expected, index
+
+
+@pytest.mark.skipif(not face_detector_available(), reason='dlib absent')
+@pytest.mark.skipif(not (REAL_DATA / 'crossing').is_dir(), reason='real sequences absent')
+def test_a_head_smaller_than_the_smallest_contour_faces_nowhere_known(tmp_path: Path) -> None:
+    """crossing: the pedestrian's head is about 6 px wide, the contour held at its smallest scale
+    on the walker (24 px) and no face ever found on it: where it faces is unknown, not away."""
+
+    first = tuple(float(v) for v in (REAL_DATA / 'crossing' / 'groundtruth.txt').read_text().split()[0].split(','))
+    track_sequence(
+        REAL_DATA / 'crossing',
+        tmp_path,
+        TrackOptions(init=first, progress=False, video=False, filter_parameters=TrackerParameters(seed=1)),
+    )
+    facing = read_facing(tmp_path / 'poses.csv')
+    assert len(facing) == 120
+    assert set(facing.values()) <= {'unknown', ''}

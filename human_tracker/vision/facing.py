@@ -6,7 +6,8 @@ looking at the camera, looking to its left, looking to its right, and the first 
 image plane either way (:attr:`~human_tracker.vision.faces.Detection.view`). So a detector run
 that finds a face on the head says whether it looks toward the camera or to a side; a run that
 looks where the face would be and finds none says the head is turned away, when a face there
-would be big and bright enough to be found and that place no longer looks as the face did where
+would be big and bright enough to be found (:func:`size_known`: a contour held at the filter's
+smallest scale may stand for a smaller head) and that place no longer looks as the face did where
 runs found it turned toward the camera (:class:`FaceLook`: a grey, low-contrast or blurred face
 is missed while it is there); otherwise, and while the head is not followed, the facing is
 unknown. A single run misses a face now and then (a blink of motion blur, a tilt past
@@ -30,6 +31,7 @@ __all__ = [
     'FAINTEST_VISIBLE_FACE',
     'LOOK_MEMORY',
     'SIDE_VIEWS',
+    'SMALLEST_SCALE_MARGIN',
     'SMALLEST_VISIBLE_FACE',
     'VOTING_RUNS',
     'FaceLook',
@@ -37,6 +39,7 @@ __all__ = [
     'FacingVotes',
     'face_visible',
     'facing_after_run',
+    'size_known',
 ]
 
 SIDE_VIEWS = frozenset({1, 2})
@@ -44,6 +47,9 @@ SIDE_VIEWS = frozenset({1, 2})
 toward the camera, turned in the image plane)."""
 SMALLEST_VISIBLE_FACE = 16.0
 """Narrower than this (working pixels) a face is too small for a run to find it: no verdict of ``away``."""
+SMALLEST_SCALE_MARGIN = 1.1
+"""A head whose scale is within this factor of the filter's smallest scale is held there by
+the bound (its particles are clipped to it), not measured: its face may be smaller."""
 FAINTEST_VISIBLE_FACE = 15.0
 """Grey-level spread (standard deviation, of 255) around the face region under which it is too
 dark for a run to find a face there: no verdict of ``away``."""
@@ -61,6 +67,14 @@ class Facing(StrEnum):
     SIDE = 'side'
     AWAY = 'away'
     UNKNOWN = 'unknown'
+
+
+def size_known(scale: float, smallest_scale: float, faces_found: int) -> bool:
+    """Whether a head's contour at ``scale`` says how big its face is: a contour held at the
+    filter's ``smallest_scale`` (within :data:`SMALLEST_SCALE_MARGIN`; both pixels per template
+    unit) may stand for a smaller head, unless the detector has found faces on this head
+    (``faces_found``): then they are of a size it finds."""
+    return scale > SMALLEST_SCALE_MARGIN * smallest_scale or faces_found > 0
 
 
 def face_visible(grey: np.ndarray, face: Box) -> bool:

@@ -41,7 +41,7 @@ from human_tracker.vision.boxes import Box, BoxRelation, centre_within
 from human_tracker.vision.evidence import Cues, Evidence, WorkingFrame, working_cues
 from human_tracker.vision.face_schedule import SEARCH_AFTER_MISSES, carry_faces
 from human_tracker.vision.faces import Detection
-from human_tracker.vision.facing import Facing, face_visible, facing_after_run
+from human_tracker.vision.facing import Facing, face_visible, facing_after_run, size_known
 from human_tracker.vision.lifecycle import LOST, TRACKING, Event, recovers, transition, weak_frame
 from human_tracker.vision.outcomes import TargetResult
 from human_tracker.vision.resolution import working_scale
@@ -376,7 +376,9 @@ class TargetTracker(Track):
         bins, place = frame.bins, self.face_place.relation
         verdict = facing_after_run(
             face,
-            face is None and face_visible(frame.grey, place.box(state)),
+            face is None
+            and size_known(float(state[2]), self.filter.parameters.min_scale, self.face_place.faces)
+            and face_visible(frame.grey, place.box(state)),
             face is None
             and bins is not None
             and self.face_look.still_there(bins, state, self.parameters.lost_appearance_distance),

@@ -28,7 +28,7 @@ from human_tracker.evaluation.baselines import run_baseline
 from human_tracker.evaluation.facing import LABELS, facing_scores, read_facing, read_labels
 from human_tracker.evaluation.identity import identity_scores, one_id_share, one_track
 from human_tracker.evaluation.metrics import Box, normalised_errors, summarise
-from human_tracker.io.sequences import open_sequence
+from human_tracker.io.sequences import open_sequence, write_groundtruth
 from human_tracker.offline import TrackOptions, read_covariances, read_ids, read_poses, track_sequence
 from human_tracker.vision.people import kinds_of
 from human_tracker.vision.target_parameters import TargetParameters, parameters_for
@@ -43,6 +43,7 @@ __all__ = [
     'compare_on_folder',
     'compare_on_sequence',
     'covariance_table',
+    'honesty_cell',
     'precision_cell',
     'real_people_table',
     'wrong_cell',
@@ -79,24 +80,32 @@ def precision_cell(row: dict[str, object] | None, spread: bool = True) -> str:
     return f'{mean:.3f} [{low:.3f}, {high:.3f}]' if spread and low != high else f'{mean:.3f}'
 
 
-def wrong_cell(row: dict[str, object]) -> str:
-    """The worst run's confident-wrong share."""
-    return f'{float(row["confident_wrong_max"]):.3f}'.rstrip('0').rstrip('.')
+def wrong_cell(row: dict[str, object], key: str = 'confident_wrong_max') -> str:
+    """The worst run's confident-wrong share (or another share: ``key``)."""
+    return f'{float(row[key]):.3f}'.rstrip('0').rstrip('.')
+
+
+def honesty_cell(row: dict[str, object]) -> str:
+    """The worst run's confident-wrong and falsely lost shares (``-``: not measured)."""
+    falsely = wrong_cell(row, 'falsely_lost_max') if 'falsely_lost_max' in row else '-'
+    return f'{wrong_cell(row)} / {falsely}'
 
 
 def real_people_table(rows: list[dict[str, object]]) -> str:
     """Markdown table of the sequences run without a box too: ours (from the first box and
-    without), the paper's tracker and OpenCV's trackers, mean precision at 20 px; for a hand,
+    without, with the worst run's confident-wrong and falsely lost shares), the paper's tracker
+    and OpenCV's trackers, mean precision at 20 px; for a hand,
     ours following the whole person too (the hand scored; with its mean IDF1 and the worst
     run's share of frames on which the person's head kept one id)."""
     real = by_sequence_and_tracker(rows)
-    columns = ['from the first box', 'confident-wrong, worst run', 'without a box', 'confident-wrong, worst run']
+    honesty = 'confident-wrong / falsely lost, worst run'
+    columns = ['from the first box', honesty, 'without a box', honesty]
     columns += ["the paper's tracker, from the box", *MAIN_WHEEL_BASELINES, *CONTRIB_BASELINES]
     columns += ['as a person, from the box', 'as a person, without a box']
     lines = ['| sequence | ' + ' | '.join(columns) + ' |', '|---|' + '---|' * len(columns)]
     for sequence, by in real.items():
-        cells = [precision_cell(by['ours']), wrong_cell(by['ours'])]
-        cells += [precision_cell(by['ours, no box']), wrong_cell(by['ours, no box'])]
+        cells = [precision_cell(by['ours']), honesty_cell(by['ours'])]
+        cells += [precision_cell(by['ours, no box']), honesty_cell(by['ours, no box'])]
         others = ('paper', *MAIN_WHEEL_BASELINES, *CONTRIB_BASELINES)
         cells += [precision_cell(by.get(name), spread=False) for name in others]
         for name in ('person', 'person, no box'):
@@ -161,6 +170,7 @@ def _row(
     ids: list[list[int]] | None = None,
     covariances: list[list[np.ndarray | None]] | None = None,
     particles: list[list[int]] | None = None,
+    falsely_lost: list[float] | None = None,
 ) -> dict[str, object]:
     """The first run's scores and ms per frame (wall clock and CPU), the precision's mean, min and
     max over ``runs``, the largest confident-wrong share of any run; with each run's target
@@ -168,7 +178,8 @@ def _row(
     (:mod:`~human_tracker.evaluation.identity`);
     with each run's box-centre ``covariances``, the normalised estimation error squared over
     every run's frames (its mean, 2 expected, and the share within the 95 % ellipse); with each
-    run's ``particles`` ([least, median, most] per frame), the fewest and most of any run."""
+    run's ``particles`` ([least, median, most] per frame), the fewest and most of any run; with
+    each run's ``falsely_lost`` share (its ``summary.json``'s), the largest."""
     summaries = [summarise(boxes, scored) for boxes, *_ in runs]
     precisions = [summary['precision_20px'] for summary in summaries]
     consistency = {}
@@ -202,11 +213,7 @@ def _row(
         'precision_20px_max': round(max(precisions), 3),
         'confident_wrong_max': max(summary['confident_wrong'] for summary in summaries),
         # Ours only: a tracker without an estimate while not TRACKING cannot be falsely lost.
-        **(
-            {'falsely_lost_max': max(summary['falsely_lost'] for summary in summaries)}
-            if all('falsely_lost' in summary for summary in summaries)
-            else {}
-        ),
+        **({'falsely_lost_max': max(falsely_lost)} if falsely_lost else {}),
         **consistency,
         **identity,
         **(
@@ -251,7 +258,9 @@ def compare_on_sequence(
         folder.mkdir()
         for index, frame in enumerate(frames[first:]):
             cv2.imwrite(str(folder / f'{index:06d}.png'), frame.image)
-        # Ours on exactly those frames (a folder without ground truth: scored here).
+        # Ours on exactly those frames, with their truth: its summary scores what only it knows,
+        # the filter's estimate while it does not say TRACKING (falsely lost).
+        write_groundtruth(folder / 'groundtruth.txt', scored)
         variants: list[tuple[str, Box | None, TargetParameters | None]] = [('ours', init, None)]
         if without_box:
             variants.append(('ours', None, None))
@@ -264,7 +273,7 @@ def compare_on_sequence(
         for name, start, parameters in variants:
             # The target scored: a person's bag is scored on its first track, the head's.
             kind = target if name == 'person' else kinds_of(target)[0]
-            ours, ids, covariances, head_ids, facings, particles = [], [], [], [], [], []
+            ours, ids, covariances, head_ids, facings, particles, falsely = [], [], [], [], [], [], []
             for seed in SEEDS:
                 options = TrackOptions(
                     target='person' if name == 'person' else target,
@@ -282,6 +291,8 @@ def compare_on_sequence(
                 ours.append((read_poses(table, kind), summary['ms_per_frame'], summary['cpu_ms_per_frame']))
                 if summary.get('particles'):
                     particles.append(summary['particles'])
+                if 'falsely_lost' in summary:
+                    falsely.append(float(summary['falsely_lost']))
                 tracks = read_ids(table)
                 ids.append(tracks[kind])
                 if name == 'person' and kind != 'head':
@@ -290,7 +301,8 @@ def compare_on_sequence(
                 if labels.is_file():
                     facings.append(read_facing(table, kind, offset=first))
             cues = 'background + skin' if summary['skin'] else 'background cue'
-            row = _row(f'{name} ({cues}{"" if start else ", no box"})', ours, scored, ids, covariances, particles)
+            tracker = f'{name} ({cues}{"" if start else ", no box"})'
+            row = _row(tracker, ours, scored, ids, covariances, particles, falsely)
             if head_ids:
                 # A person's head beside the hand scored: how long it keeps one id, worst run.
                 row['head_one_id_min'] = round(min(one_id_share(run) for run in head_ids), 3)

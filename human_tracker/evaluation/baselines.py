@@ -111,7 +111,7 @@ def main(argv: list[str] | None = None) -> int:
     if options.threads is not None:
         cv2.setNumThreads(options.threads)
     init = tuple(float(v) for v in options.init.split(','))
-    files = sorted(options.frames.iterdir())
+    files = sorted(f for f in options.frames.iterdir() if f.suffix == '.png')  # not its groundtruth.txt
     images = (cv2.imread(str(f), cv2.IMREAD_COLOR) for f in files)
     boxes, ms, cpu_ms = run_baseline(options.tracker, images, init)  # type: ignore[arg-type]
     result = {

@@ -14,6 +14,7 @@ from human_tracker.offline import TrackOptions, track_sequence
 from human_tracker.scenes.generator import SCENES, render_scene
 from human_tracker.vision.anchoring import face_and_neck
 from human_tracker.vision.background import BackgroundModel
+from human_tracker.vision.boxes import centre_within
 from human_tracker.vision.face_finder import FaceFinder
 from human_tracker.vision.faces import Detection
 from human_tracker.vision.skin import SkinSegmenter, default_skin_model
@@ -88,9 +89,11 @@ def test_a_face_is_cut_from_the_regions_hypotheses_come_from() -> None:
     assert np.count_nonzero(skin == 0) == 0  # the skin labels given are left as they are
 
 
-@pytest.mark.parametrize('face_on_hand', [True, False])
-def test_a_contour_on_the_face_found_last_is_lost(face_on_hand: bool) -> None:
-    """A detected face where the hand's contour is: weak frames, LOST after lost_frames (5)."""
+@pytest.mark.parametrize('face', ['on the hand', 'above the hand', 'far away'])
+def test_a_contour_on_the_face_found_last_is_lost(face: str) -> None:
+    """A detected face where the hand's contour is: weak frames, LOST after lost_frames (5). A
+    hand in front of its own person's chin and neck (below the face box, in its face-and-neck
+    region) stays TRACKING: a hand passes there."""
     frames = list(render_scene(SCENES['hand_wave']))[:12]
     tracker = TargetTracker(open_hand(), TrackerParameters(), HAND)
     tracker.faces.finder = None  # the rendered scene has no face dlib finds: the face is given
@@ -98,14 +101,17 @@ def test_a_contour_on_the_face_found_last_is_lost(face_on_hand: bool) -> None:
     tracker.initialise_from_box(frames[0].box)
     statuses = []
     for frame in frames:
-        # A face box on the hand (the contour's box centre lies in it), or far away; in working
-        # pixels, where the detector runs (640 px frames are reduced to 320).
-        hand = tuple(0.5 * v for v in frame.box)
-        tracker.faces.last_face = hand if face_on_hand else (5.0, 5.0, 20.0, 20.0)
+        # A face box on the hand (the contour's box centre lies in it), above it (the centre
+        # 0.2 of its height below the chin: in the face-and-neck region), or far away; in
+        # working pixels, where the detector runs (640 px frames are reduced to 320).
+        x, y, w, h = (0.5 * v for v in frame.box)
+        places = {'on the hand': (x, y, w, h), 'above the hand': (x, y + h / 2 - 1.2 * h, w, h)}
+        tracker.faces.last_face = places.get(face, (5.0, 5.0, 20.0, 20.0))
+        assert face != 'above the hand' or centre_within((x, y, w, h), face_and_neck(tracker.faces.last_face))
         tracker.faces.face_misses = 0
         gray = cv2.cvtColor(frame.image, cv2.COLOR_BGR2GRAY)
         statuses.append(tracker.process(frame.image, background.apply(gray), segmenter.segment(frame.image)).status)
-    if face_on_hand:
+    if face == 'on the hand':
         # (A hypothesis from the skin left around the cut may start the filter again later.)
         assert statuses[:5] == ['TRACKING'] * 4 + ['LOST']
     else:

@@ -551,7 +551,7 @@ def main(argv: list[str] | None = None) -> int:
     report = [
         '# human_tracker benchmark (this machine, one run)\n',
         f'Written by `make bench` on {platform.node()} ({os.cpu_count()} cores), {time.strftime("%Y-%m-%d")}. '
-        'Ours runs with five seeds (mean, min, max), MIL three times; every tracker on the same frames '
+        'Ours runs with five seeds (a hand ten; mean, min, max), MIL three times; every tracker on the same frames '
         'from the same first box. confident_wrong: share of annotated frames reported TRACKING more than '
         'twice the target width from the truth; falsely_lost: share of annotated frames not reported TRACKING while '
         "the filter's estimate is within the target's width of the truth.\n",

@@ -5,10 +5,11 @@ protocol) and is scored on the annotated frames from there on. KCF and CSRT run 
 contrib virtualenv (``contrib_python``) on the same frames written as PNG files.
 
 A particle filter's track depends on its random draws, and on a hard sequence one draw can
-hold the target where another loses it. Ours therefore runs with ``SEEDS`` seeds (a hand ``HAND_SEEDS``), and MIL,
-which draws from OpenCV's global generator (each run in a process gives another track; a
-fresh process repeats the series), ``RANDOM_BASELINE_RUNS`` times; each row gives the first
-run's figures and the mean and range of the precision over the runs.
+hold the target where another loses it. Ours therefore runs with ``SEEDS`` seeds (a hand
+with ``HAND_SEEDS``), and MIL, which draws from OpenCV's global generator (each run in a
+process gives another track; a fresh process repeats the series), ``RANDOM_BASELINE_RUNS``
+times; each row gives the first run's figures and the mean and range of the precision over
+the runs.
 """
 
 from __future__ import annotations
@@ -55,7 +56,8 @@ CONTRIB_BASELINES = ('KCF', 'CSRT')
 SEEDS = (0, 1, 2, 3, 4)
 """Seeds of our filter's random generator, one run each."""
 HAND_SEEDS = tuple(range(10))
-"""A hand's seeds: a waving hand's runs differ more (hand2, seeds 0-9: 0.54 to 0.73 from one box)."""
+"""Seeds of our filter on a hand sequence, one run each: a waving hand's runs differ more from
+seed to seed than a head's (docs/decisions/hand-passes-before-its-face.md)."""
 RANDOM_BASELINE_RUNS = {'MIL': 3}
 """Runs of the baselines whose result changes from run to run (the others run once)."""
 _CHI2_2DOF_95 = 5.991  # 95 % quantile of the chi-squared distribution with 2 degrees of freedom

@@ -313,8 +313,8 @@ class TargetTracker(Track):
         # A contour on a face kept off is a weak frame: on the face itself for the hand's own
         # person, whose hand passes in front of their chin and neck (there the contour's own
         # fit decides, docs/decisions/hand-passes-before-its-face.md); on the face and neck for
-        # other people's, which are not skin to the likelihood. On a face this frame's own run
-        # found under it (not hidden by the hand) it is LOST at once.
+        # other people's, in front of whom this hand has no business. On a face this frame's own
+        # run found under it (not hidden by the hand) it is LOST at once.
         on_face = p.avoid_faces and any(centre_within(estimate.box, region) for region in [*own_face, *avoided])
         seen_on_face = p.avoid_faces and any(centre_within(estimate.box, d.box) for d in proposals.detections or ())
         if face is not None and self.status == TRACKING:

@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
-from human_tracker.vision.anchoring import FRESH_FACE_FRAMES, UNCONFIRMED_FRAMES
+from human_tracker.vision.anchoring import FRESH_FACE_FRAMES, UNCONFIRMED_FRAMES, same_face
 from human_tracker.vision.appearance import (
     HUE_BINS,
     NUM_BINS,
@@ -20,7 +20,7 @@ from human_tracker.vision.appearance import (
 )
 from human_tracker.vision.boxes import BoxRelation
 from human_tracker.vision.faces import FACE_ON_HEAD, Detection, FaceDetector, _overlap
-from human_tracker.vision.lifecycle import TRACKING
+from human_tracker.vision.lifecycle import LOST, TRACKING
 from human_tracker.vision.proposals import (
     detection_log_likelihood,
     draw_with_proposals,
@@ -289,11 +289,8 @@ def test_a_face_off_the_contour_restarts_only_a_target_found_by_itself() -> None
     assert tracker._restart_on_face(faces, None, estimate, unlike) == 0
 
 
-def test_a_head_whose_face_was_just_seen_restarts_only_on_a_face_of_its_size() -> None:
-    """While a head found by itself has a fresh face (found within FRESH_FACE_FRAMES), a face
-    elsewhere restarts it only within FACE_SIZE_CHANGE of that face's size or near where it was:
-    30 px against 40 is 0.75 (out, about 115 px away), 44 px is 1.1 (in); 30 px 5 px from it (in).
-    Once the face is stale, the best face again."""
+def _head_found_by_itself_with_its_face() -> tuple[TargetTracker, TrackEstimate]:
+    """A head found by itself, TRACKING at (100, 100), scale 50, its 40 px face just found on it."""
     tracker = TargetTracker(head_and_shoulders(), parameters=TargetParameters(proposals='off'))
     estimate = TrackEstimate(
         np.array([100.0, 100.0, 50.0, 0.0]),
@@ -308,14 +305,53 @@ def test_a_head_whose_face_was_just_seen_restarts_only_on_a_face_of_its_size() -
     )
     tracker.status = TRACKING
     tracker._anchor_on_face(Detection((80.0, 90.0, 40.0, 40.0), 1.0), estimate.state)
-    tracker.faces.last_face, tracker.frames_without_own_face = (80.0, 90.0, 40.0, 40.0), FRESH_FACE_FRAMES
+    tracker.faces.last_face, tracker.frames_without_own_face = (80.0, 90.0, 40.0, 40.0), 0
+    return tracker, estimate
+
+
+def _found_twice(tracker: TargetTracker, states: np.ndarray, estimate: TrackEstimate) -> int | None:
+    """Which of ``states`` restarts a holding head found by itself, its face fresh, on the second
+    of two detector runs that find them (never on the first)."""
+    assert tracker._restart_on_face(states, None, estimate, None) is None
+    tracker.faces.frames += 1
+    return tracker._restart_on_face(states, None, estimate, None)
+
+
+def test_a_head_whose_face_was_just_seen_restarts_only_on_a_face_of_its_size() -> None:
+    """While a head found by itself has a fresh face (found within FRESH_FACE_FRAMES), a face
+    elsewhere restarts it only within FACE_SIZE_CHANGE of that face's size or near where it was:
+    30 px against 40 is 0.75 (out, about 115 px away), 44 px is 1.1 (in); 30 px 5 px from it (in).
+    Once the face is stale, the best face again."""
+    tracker, estimate = _head_found_by_itself_with_its_face()
+    tracker.frames_without_own_face = FRESH_FACE_FRAMES
     smaller, alike = FACE_ON_HEAD.state((200.0, 100.0, 30.0, 30.0)), FACE_ON_HEAD.state((20.0, 100.0, 44.0, 44.0))
     assert tracker._restart_on_face(np.array([smaller]), None, estimate, None) is None
-    assert tracker._restart_on_face(np.array([smaller, alike]), None, estimate, None) == 1
+    assert _found_twice(tracker, np.array([smaller, alike]), estimate) == 1
     there = FACE_ON_HEAD.state((85.0, 90.0, 30.0, 30.0))
-    assert tracker._restart_on_face(np.array([smaller, there]), None, estimate, None) == 1
+    assert _found_twice(tracker, np.array([smaller, there]), estimate) == 1
     tracker.frames_without_own_face = FRESH_FACE_FRAMES + 1
     assert tracker._restart_on_face(np.array([smaller, alike]), None, estimate, None) == 0
+
+
+def test_a_face_takes_a_holding_head_found_by_itself_off_its_contour_only_when_found_twice() -> None:
+    """hand2 as a person, frame 78: the hand hides the face of a head found by itself, and the
+    detector finds a "face" of its size on the desk beside it. One such detection does not
+    restart the holding head; the same face on the next run does (same_face), one elsewhere,
+    or after FRESH_FACE_FRAMES frames, does not. Not holding, or its face not fresh: at once."""
+    tracker, estimate = _head_found_by_itself_with_its_face()
+    first, other = FACE_ON_HEAD.state((150.0, 90.0, 40.0, 40.0)), FACE_ON_HEAD.state((20.0, 90.0, 40.0, 40.0))
+    assert tracker._restart_on_face(np.array([first]), None, estimate, None) is None  # its first run
+    tracker.faces.frames += 1
+    assert tracker._restart_on_face(np.array([other]), None, estimate, None) is None  # another face, 130 px away
+    tracker.faces.frames += FRESH_FACE_FRAMES + 1
+    assert tracker._restart_on_face(np.array([other]), None, estimate, None) is None  # that one again, too late
+    tracker.faces.frames += 1
+    assert tracker._restart_on_face(np.array([other + [5.0, 0.0, 2.0, 0.0]]), None, estimate, None) == 0
+    assert tracker.disputing_face is None
+    tracker.status = LOST  # not holding: the best face at once
+    assert tracker._restart_on_face(np.array([first]), None, estimate, None) == 0
+    face = np.array([0.0, 0.0, 50.0, 0.0])
+    assert same_face(face, np.array([30.0, 0.0, 45.0, 0.0])) and not same_face(face, np.array([0.0, 0.0, 35.0, 0.0]))
 
 
 def test_box_overlap_by_hand() -> None:

@@ -34,6 +34,7 @@ __all__ = [
     'face_beside',
     'face_on',
     'restart_on_face',
+    'same_face',
 ]
 
 FACE_MATCH_DISTANCE = 0.75
@@ -252,6 +253,15 @@ def could_be_own_face(states: np.ndarray, fresh_face: Box | None, place: BoxRela
         return 0
     could = np.flatnonzero(could_be_own_faces(states, fresh_face, place))
     return int(could[0]) if could.size else None
+
+
+def same_face(state: np.ndarray, other: np.ndarray) -> bool:
+    """Whether faces' head states ``state`` and ``other`` (x, y, s, θ) found on two detector runs
+    a few frames apart could be one face: within ``FACE_MATCH_DISTANCE`` head widths and a
+    factor ``FACE_SIZE_CHANGE`` in size of each other."""
+    ratio = state[2] / other[2]
+    near = float(np.hypot(*(state[:2] - other[:2]))) <= FACE_MATCH_DISTANCE * other[2]
+    return near and 1 / FACE_SIZE_CHANGE <= ratio <= FACE_SIZE_CHANGE
 
 
 def face_and_neck(face: Box) -> Box:

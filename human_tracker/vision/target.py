@@ -30,11 +30,13 @@ from typing import NamedTuple
 import numpy as np
 
 from human_tracker.vision.anchoring import (
+    FRESH_FACE_FRAMES,
     UNCONFIRMED_FRAMES,
     could_be_own_faces,
     face_and_neck,
     face_on,
     restart_on_face,
+    same_face,
 )
 from human_tracker.vision.appearance import AppearanceModel
 from human_tracker.vision.boxes import Box, BoxRelation, centre_within
@@ -443,19 +445,32 @@ class TargetTracker(Track):
     def _restart_on_face(
         self, states: np.ndarray, face: Detection | None, estimate: TrackEstimate | None, appearance: Appearance | None
     ) -> int | None:
-        """Which of the faces' ``states`` restarts the filter (:func:`~.anchoring.restart_on_face`)."""
-        return restart_on_face(
+        """Which of the faces' ``states`` restarts the filter (:func:`~.anchoring.restart_on_face`).
+        A face that takes a holding head found by itself, its own face fresh, off its contour
+        must be found on two runs in a row (:func:`~.anchoring.same_face`, within
+        ``FRESH_FACE_FRAMES`` frames): one detection alone may be the detector's mistake on
+        clutter beside the face a hand hides."""
+        holding, fresh = self.status == TRACKING and self.weak_frames == 0, self._fresh_face()
+        k = restart_on_face(
             states,
             face,
             estimate,
             appearance,
-            holding=self.status == TRACKING and self.weak_frames == 0,
+            holding=holding,
             started_from_box=self.started_from_box,
-            fresh_face=self._fresh_face(),
+            fresh_face=fresh,
             lost_appearance_distance=self.parameters.lost_appearance_distance,
             confirmed=self.frames_without_own_face < UNCONFIRMED_FRAMES,
             place=self.face_place.relation,
         )
+        if k is None or not holding or self.started_from_box or fresh is None:
+            self.disputing_face = None
+            return k
+        before, self.disputing_face = self.disputing_face, (states[k], self.faces.frames)
+        if before is None or self.faces.frames - before[1] > FRESH_FACE_FRAMES or not same_face(states[k], before[0]):
+            return None
+        self.disputing_face = None
+        return k
 
     def _skin_draws(self) -> dict[str, object]:
         """How skin regions draw particles, unlike faces: a region's moments are as coarse as X_0

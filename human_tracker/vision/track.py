@@ -58,6 +58,9 @@ class Track:
     face_place: FacePlace = field(default_factory=FacePlace, init=False)
     faces: FaceSchedule = field(init=False)
     frames_without_own_face: int = field(default=0, init=False)
+    # A face that would take the holding head off its contour, seen on one run: its head state
+    # and the schedule's frame count then (:meth:`TargetTracker._restart_on_face`).
+    disputing_face: tuple[np.ndarray, int] | None = field(default=None, init=False, repr=False)
     # The edge fit of its steady frames, what a weak frame falls below.
     usual_fit: UsualFit = field(default_factory=UsualFit, init=False)
     camera: CameraShake = field(default_factory=CameraShake, init=False)
@@ -128,6 +131,7 @@ class Track:
         self._fit_resolution(float(state[2]), 0.0)  # before the frame's size is known
         self.anchor = BoxAnchor(BoxRelation.of(box, state))  # until the contour settles on the next frame
         self.frames_without_own_face = 0
+        self.disputing_face = None
         self.usual_fit = UsualFit()
         self.start_box = tuple(float(v) for v in box)  # type: ignore[assignment]
         self.started_from_box = True
@@ -151,6 +155,7 @@ class Track:
         self.filter.reset()
         self.status = transition(self.status, Event.RESET)
         self.weak_frames = self.steady_frames = self.frames_without_own_face = 0
+        self.disputing_face = None
         self.usual_fit = UsualFit()
         self.appearance = self.reported_state = self.start_box = self.finest_scale = None
         self.anchor = BoxAnchor()

@@ -219,12 +219,17 @@ def restart_on_face(
     return k if distances[k] < limit else None
 
 
+def _alike_in_size(ratios: np.ndarray | float) -> np.ndarray | bool:
+    """Whether sizes ``ratios`` apart (one face's scale over another's) are within a factor
+    :data:`FACE_SIZE_CHANGE` of each other: a face does not change size more in a few frames."""
+    return (ratios >= 1 / FACE_SIZE_CHANGE) & (ratios <= FACE_SIZE_CHANGE)
+
+
 def face_beside(states: np.ndarray, state: np.ndarray) -> int | None:
     """Of the faces' head ``states``, the nearest whose head is within :data:`FACE_BESIDE` head
     widths of the contour at ``state`` and of its size (within ``FACE_SIZE_CHANGE``); None."""
-    ratios = states[:, 2] / state[2]
     distances = np.hypot(*(states[:, :2] - state[:2]).T) / state[2]
-    beside = (ratios >= 1 / FACE_SIZE_CHANGE) & (ratios <= FACE_SIZE_CHANGE) & (distances <= FACE_BESIDE)
+    beside = _alike_in_size(states[:, 2] / state[2]) & (distances <= FACE_BESIDE)
     if not beside.any():
         return None
     return int(np.flatnonzero(beside)[np.argmin(distances[beside])])
@@ -239,10 +244,8 @@ def could_be_own_faces(states: np.ndarray, fresh_face: Box, place: BoxRelation =
     hides this one. ``states`` and the fresh face's head are placed by ``place``. Returns a
     ``(D,)`` boolean mask."""
     own = place.state(fresh_face)
-    ratios = states[:, 2] / own[2]
-    alike = (ratios >= 1 / FACE_SIZE_CHANGE) & (ratios <= FACE_SIZE_CHANGE)
     near = np.hypot(*(states[:, :2] - own[:2]).T) <= FACE_MATCH_DISTANCE * fresh_face[2]
-    return alike | near
+    return _alike_in_size(states[:, 2] / own[2]) | near
 
 
 def could_be_own_face(states: np.ndarray, fresh_face: Box | None, place: BoxRelation = FACE_ON_HEAD) -> int | None:
@@ -259,9 +262,8 @@ def same_face(state: np.ndarray, other: np.ndarray) -> bool:
     """Whether faces' head states ``state`` and ``other`` (x, y, s, θ) found on two detector runs
     a few frames apart could be one face: within ``FACE_MATCH_DISTANCE`` head widths and a
     factor ``FACE_SIZE_CHANGE`` in size of each other."""
-    ratio = state[2] / other[2]
     near = float(np.hypot(*(state[:2] - other[:2]))) <= FACE_MATCH_DISTANCE * other[2]
-    return near and 1 / FACE_SIZE_CHANGE <= ratio <= FACE_SIZE_CHANGE
+    return near and bool(_alike_in_size(state[2] / other[2]))
 
 
 def face_and_neck(face: Box) -> Box:

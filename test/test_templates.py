@@ -120,14 +120,3 @@ def test_the_hand_is_open_or_closed_in_one_frame() -> None:
     np.testing.assert_allclose(fitted, state)
     with pytest.raises(ValueError, match='has 24 points'):
         replace(hand, variants=(closed_hand(24),))
-
-
-def test_the_head_stands_upright_the_hand_turns_freely(tmp_path) -> None:
-    assert make_template('head').upright
-    assert not make_template('hand').upright and not any(shape.upright for shape in make_template('hand').shapes)
-    path = tmp_path / 'torso.json'
-    spec = {'control_points': [[-0.5, 0.5], [-0.3, 0], [0.3, 0], [0.5, 0.5]], 'reference_box': [-0.5, 0, 1, 0.5]}
-    path.write_text(json.dumps(spec))
-    assert not load_template(path).upright
-    path.write_text(json.dumps({**spec, 'upright': True}))
-    assert load_template(path).upright

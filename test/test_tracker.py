@@ -127,19 +127,3 @@ def test_a_hand_is_followed_in_the_shape_it_shows(shown: int) -> None:
     head = ContourTracker(head_and_shoulders(), TrackerParameters(num_particles=10))
     head.initialise(state)
     assert not head.labels.any()
-
-
-@pytest.mark.parametrize(('template', 'upright'), [(head_and_shoulders(), True), (hand(), False)])
-def test_only_an_upright_silhouettes_tilt_returns_to_zero(template, upright) -> None:
-    still = TrackerParameters(num_particles=50, process_noise=(0.0, 0.0, 0.0, 0.0), initial_spread=(0.0,) * 4)
-    tracker = ContourTracker(template, still)
-    tracker.initialise(np.array([50.0, 50.0, 30.0, 0.5]))
-    for _ in range(5):
-        tracker.step(np.zeros((100, 100), np.uint8))
-    # No edges and no noise: only the dynamics move θ, for the head by the AR(2) with mean 0.
-    keep, a = 1.0 - still.tilt_reversion, still.velocity_damping
-    tilts = [0.5, 0.5]
-    for _ in range(5):
-        tilts.append(keep * (tilts[-1] + a * (tilts[-1] - tilts[-2])))
-    np.testing.assert_allclose(tracker.particles[:, 3], tilts[-1] if upright else 0.5)
-    assert tilts[-1] < 0.2

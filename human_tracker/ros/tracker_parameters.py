@@ -59,7 +59,6 @@ FILTER_PARAMETERS = (
         float(np.pi / 2),
     ),
     ParameterSpec('velocity_damping', 'a of the AR(2) dynamics (§2.2): 0 random walk, 1 constant velocity.', 0.0, 1.0),
-    ParameterSpec('tilt_reversion', "r: share of an upright head's predicted tilt back to 0 per frame.", 0.0, 1.0),
     ParameterSpec('process_noise', 'W (§2.2): std of x, y (px), s (fraction), θ (rad) per frame.'),
     ParameterSpec('initial_spread', 'Σ (§2.5): std of the initial cloud: x, y (px), s (fraction), θ (rad).'),
     ParameterSpec(

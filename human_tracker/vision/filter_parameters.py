@@ -30,10 +30,6 @@ class TrackerParameters:
         orientation_tolerance: Largest angle (radians) between an edge's gradient and the
             contour normal for the edge to count as z(j); π/2 accepts any edge (the paper).
         velocity_damping: a in the AR(2) matrix A (§2.2), in [0, 1].
-        tilt_reversion: r, the share of an upright silhouette's predicted tilt θ that returns
-            to 0 each frame: its AR(2) process has a mean, upright
-            (:mod:`~human_tracker.vision.dynamics`), in [0, 1]. Silhouettes that turn freely
-            (a hand) have none.
         process_noise: W of §2.2: std of x, y (pixels), s (fraction), θ (radians).
         initial_spread: diagonal of Σ of §2.5, same units as process_noise.
         interior_weight: w of the colour term (§3.2), > 1: how much less a non-skin pixel
@@ -79,7 +75,6 @@ class TrackerParameters:
     colour_depth: float = 0.1
     appearance_gain: float = 40.0
     velocity_damping: float = 0.6
-    tilt_reversion: float = 0.03
     process_noise: tuple[float, float, float, float] = (5.0, 5.0, 0.01, 0.02)
     initial_spread: tuple[float, float, float, float] = (8.0, 8.0, 0.08, 0.08)
     min_scale: float = 24.0
@@ -118,7 +113,6 @@ class TrackerParameters:
                 f'need 0 < min_scale <= max_scale, got {self.min_scale}, {self.max_scale}',
             ),
             (0.0 <= self.velocity_damping <= 1.0, f'velocity_damping must be in [0, 1], got {self.velocity_damping}'),
-            (0.0 <= self.tilt_reversion <= 1.0, f'tilt_reversion must be in [0, 1], got {self.tilt_reversion}'),
             (
                 len(self.process_noise) == 4 and min(self.process_noise) >= 0,
                 f'process_noise must be 4 values >= 0, got {self.process_noise}',

@@ -26,8 +26,6 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from human_tracker.vision.dynamics import predicted_mean
-
 __all__ = ['detection_log_likelihood', 'draw_with_proposals', 'log_prior_density', 'log_proposal_density']
 
 
@@ -70,7 +68,6 @@ def log_prior_density(
     previous: np.ndarray,
     velocity_damping: float,
     process_noise: np.ndarray,
-    tilt_reversion: float = 0.0,
 ) -> np.ndarray:
     """``(R,)`` log f(x) of the AR(2) prior from an equally weighted (resampled) particle set.
 
@@ -80,7 +77,6 @@ def log_prior_density(
         previous: ``(P, 4)`` the same particles at k-2.
         velocity_damping: a of §2.2.
         process_noise: ``(4,)`` W's standard deviations (s as a fraction of the scale).
-        tilt_reversion: r of :func:`~human_tracker.vision.dynamics.predicted_mean`.
     """
     # Resampling copies particles next to each other: each run of copies is one component,
     # weighted by its length (the same density, evaluated a few times faster).
@@ -88,7 +84,7 @@ def log_prior_density(
     first = np.flatnonzero(np.concatenate([[True], np.any(pairs[1:] != pairs[:-1], axis=1)]))
     copies = np.diff(np.append(first, len(pairs)))
     current, previous = current[first], previous[first]
-    means = predicted_mean(current, previous, velocity_damping, tilt_reversion)
+    means = current + velocity_damping * (current - previous)
     log_weights = np.log(copies / copies.sum())
     return _log_mixture(np.asarray(states, dtype=np.float64), means, _stds(current, process_noise), log_weights)
 
@@ -107,7 +103,6 @@ def draw_with_proposals(
     *,
     velocity_damping: float,
     process_noise: np.ndarray,
-    tilt_reversion: float = 0.0,
     spread: np.ndarray,
     importance_share: float,
     restart_share: float,
@@ -120,7 +115,7 @@ def draw_with_proposals(
         previous: ``(P, 4)`` the same at k-2.
         predicted: ``(P, 4)`` their prediction through the dynamics (x_k).
         detections: ``(D, 4)`` states of the detections, D >= 1.
-        velocity_damping, process_noise, tilt_reversion: The dynamics that made ``predicted``.
+        velocity_damping, process_noise: The dynamics that made ``predicted``.
         spread: ``(4,)`` standard deviations of g around a detection (s as a fraction).
         importance_share: Share of particles drawn from g with the correction f / g.
         restart_share: Share drawn from g without correction.
@@ -149,7 +144,7 @@ def draw_with_proposals(
     past[slots] = drawn
     corrected = slots[:importance]
     correction[corrected] = log_prior_density(
-        drawn[:importance], current, previous, velocity_damping, process_noise, tilt_reversion
+        drawn[:importance], current, previous, velocity_damping, process_noise
     ) - log_proposal_density(drawn[:importance], detections, spread)
     return particles, past, correction
 

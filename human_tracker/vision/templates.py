@@ -132,9 +132,6 @@ class ContourTemplate:
         reference_box: ``(x, y, w, h)`` of the reference region in template units; the
             tracker reports this box, so it compares with head / hand ground truth.
         closed: Whether the spline is a closed curve.
-        upright: Whether the silhouette stands upright, its tilt θ about 0 (a head and
-            shoulders: the shoulders are the body's), so that the dynamics pull θ back to 0;
-            a hand turns freely.
         variants: Other silhouettes of the same target (a hand closed as well as open), with
             as many points, in this template's unit frame and reported through its reference
             region: each particle carries which shape it draws (a mixed state, Isard & Blake,
@@ -146,7 +143,6 @@ class ContourTemplate:
     normals: np.ndarray
     reference_box: tuple[float, float, float, float]
     closed: bool = False
-    upright: bool = False
     variants: tuple[ContourTemplate, ...] = ()
 
     def __post_init__(self) -> None:
@@ -217,8 +213,7 @@ def template_from_control_points(
 
 def head_and_shoulders(num_points: int = 48) -> ContourTemplate:
     """The head-and-shoulders template of Fig. 1 (an open spline), head one unit wide."""
-    template = template_from_control_points(_HEAD_AND_SHOULDERS, num_points, _HEAD_BOX, name='head_and_shoulders')
-    return replace(template, upright=True)
+    return template_from_control_points(_HEAD_AND_SHOULDERS, num_points, _HEAD_BOX, name='head_and_shoulders')
 
 
 def open_hand(num_points: int = 48) -> ContourTemplate:
@@ -245,8 +240,7 @@ def load_template(path: str | Path, num_points: int = 48) -> ContourTemplate:
     """Load a template from a JSON file.
 
     The file holds ``{"control_points": [[x, y], ...], "reference_box": [x, y, w, h],
-    "closed": false, "upright": false}`` in template units (reference region about one unit
-    wide); ``upright`` (optional) as :attr:`ContourTemplate.upright`.
+    "closed": false}`` in template units (reference region about one unit wide).
 
     Raises:
         ValueError: The file is missing, unreadable or malformed; the message says which.
@@ -257,13 +251,11 @@ def load_template(path: str | Path, num_points: int = 48) -> ContourTemplate:
         control = np.asarray(spec['control_points'], dtype=np.float64)
         box = tuple(float(v) for v in spec['reference_box'])
         closed = bool(spec.get('closed', False))
-        upright = bool(spec.get('upright', False))
     except (OSError, ValueError, KeyError, TypeError) as err:
         raise ValueError(f'cannot load template {path}: {err}') from err
     if len(box) != 4 or box[2] <= 0 or box[3] <= 0:
         raise ValueError(f'template {path}: reference_box must be [x, y, w>0, h>0], got {box}')
-    template = template_from_control_points(control, num_points, box, name=path.stem, closed=closed)
-    return replace(template, upright=upright)
+    return template_from_control_points(control, num_points, box, name=path.stem, closed=closed)
 
 
 def transform_points(points: np.ndarray, state: np.ndarray) -> np.ndarray:

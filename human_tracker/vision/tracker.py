@@ -265,9 +265,8 @@ class ContourTracker:
         if not least <= self.particles.shape[0] <= params.num_particles:  # the bounds changed
             self._resize(min(max(self.particles.shape[0], least), params.num_particles))
         current, past = self.particles, self.previous
-        tilt_reversion = params.tilt_reversion if self.template.upright else 0.0
         self.particles, self.previous = predict(
-            current, past, params.velocity_damping, np.asarray(params.process_noise), self.rng, tilt_reversion
+            current, past, params.velocity_damping, np.asarray(params.process_noise), self.rng
         )
         self.labels = self._switch_shapes(self.labels)
         correction = None
@@ -279,7 +278,6 @@ class ContourTracker:
                 np.asarray(detections, dtype=np.float64),
                 velocity_damping=params.velocity_damping,
                 process_noise=np.asarray(params.process_noise),
-                tilt_reversion=tilt_reversion,
                 spread=np.asarray(params.proposal_spread if detection_spread is None else detection_spread),
                 importance_share=params.importance_share,
                 restart_share=params.restart_share if restart_share is None else restart_share,

@@ -28,7 +28,6 @@ from human_tracker.vision.proposals import (
     log_proposal_density,
 )
 from human_tracker.vision.target import TargetParameters, TargetTracker
-from human_tracker.vision.target_parameters import FaceParameters
 from human_tracker.vision.templates import head_and_shoulders
 from human_tracker.vision.tracker import TrackEstimate
 
@@ -229,27 +228,6 @@ def test_face_detector_finds_the_face_on_a_real_frame() -> None:
         assert found, 'no face found'
         x, y, w, h = found[0].box
         assert np.hypot(x + w / 2 - centre[0], y + h / 2 - centre[1]) < 0.3 * truth[2]
-
-
-@pytest.mark.skipif(not (REAL / 'trellis').is_dir(), reason='real sequences absent')
-def test_a_face_in_shadow_is_found_near_the_head_only_as_a_weak_detection() -> None:
-    """trellis, frames 418-454: the man looks down, his face in hard shadow. Searched around
-    the true face, dlib scores it below 0 on most frames; at ``near_face_min_score`` it is found
-    there, every detection on the face (within half its width of the true centre)."""
-    frames = sorted((REAL / 'trellis' / 'img').iterdir())
-    truth = [[float(v) for v in line.split(',')] for line in (REAL / 'trellis' / 'groundtruth.txt').read_text().split()]
-    detector, weakest = FaceDetector(), FaceParameters().near_face_min_score
-    found = {0.0: 0, weakest: 0}
-    for k in range(418, 455, 3):
-        grey = cv2.imread(str(frames[k]), cv2.IMREAD_GRAYSCALE)
-        x, y, w, h = truth[k]
-        for score in found:
-            faces = detector.detect_near(grey, (x, y, w, h), min_score=score)
-            for face in faces:
-                fx, fy, fw, fh = face.box
-                assert np.hypot(fx + fw / 2 - x - w / 2, fy + fh / 2 - y - h / 2) < 0.5 * w
-            found[score] += bool(faces)
-    assert found[weakest] >= found[0.0] + 3, found
 
 
 def test_faces_re_anchor_the_reported_box() -> None:

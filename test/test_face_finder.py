@@ -13,7 +13,6 @@ from human_tracker.vision.face_finder import (
     Search,
     plan_runs,
 )
-from human_tracker.vision.face_schedule import FaceSchedule
 from human_tracker.vision.faces import Detection, near_region
 from human_tracker.vision.people import PersonTracker
 from human_tracker.vision.target_parameters import FaceParameters
@@ -22,32 +21,24 @@ FRAME = (0, 0, 320, 240)
 
 
 class _Detector:
-    """A face detector that finds the faces it is given wherever it looks, those scoring at least
-    the threshold asked for (0 by default), and counts its runs."""
+    """A face detector that finds the faces it is given wherever it looks, and counts its runs."""
 
-    def __init__(self, faces: list[tuple[float, float, float, float]], scores: list[float] | None = None) -> None:
-        self.faces = [Detection(box, score) for box, score in zip(faces, scores or [1.0] * len(faces), strict=True)]
+    def __init__(self, faces: list[tuple[float, float, float, float]]) -> None:
+        self.faces = [Detection(box, 1.0) for box in faces]
         self.runs: list[tuple[str, object]] = []
 
-    def _scoring(self, min_score: float | None) -> list[Detection]:
-        return [face for face in self.faces if face.score >= (min_score or 0.0)]
-
-    def detect(self, image: np.ndarray, upsample: int = 1, min_score: float | None = None) -> list[Detection]:
+    def detect(self, image: np.ndarray, upsample: int = 1) -> list[Detection]:
         self.runs.append(('frame', upsample))
-        return self._scoring(min_score)
+        return list(self.faces)
 
-    def detect_near(
-        self, image: np.ndarray, box: tuple[float, ...], reach: float = 2.0, min_score: float | None = None
-    ) -> list[Detection]:
+    def detect_near(self, image: np.ndarray, box: tuple[float, ...], reach: float = 2.0) -> list[Detection]:
         self.runs.append(('near', box))
         rectangle, _ = near_region(image.shape, box, reach)
-        return [face for face in self._scoring(min_score) if Search(rectangle, 1.0).holds(face)]
+        return [face for face in self.faces if Search(rectangle, 1.0).holds(face)]
 
-    def detect_region(
-        self, image: np.ndarray, rectangle: tuple[int, ...], zoom: float, min_score: float | None = None
-    ) -> list[Detection]:
+    def detect_region(self, image: np.ndarray, rectangle: tuple[int, ...], zoom: float) -> list[Detection]:
         self.runs.append(('region', (rectangle, zoom)))
-        return [face for face in self._scoring(min_score) if Search(rectangle, zoom).holds(face)]  # type: ignore[arg-type]
+        return [face for face in self.faces if Search(rectangle, zoom).holds(face)]  # type: ignore[arg-type]
 
 
 def test_searches_merge_only_when_that_scans_fewer_pixels() -> None:
@@ -103,50 +94,6 @@ def test_the_searches_of_a_frame_run_once_and_each_gets_its_own_faces(thread: bo
     assert len(finer.result()) == 2 and detector.runs[-1] == ('region', (FRAME, FINE_WHOLE_FRAME_ZOOM))
 
 
-def test_a_weak_face_is_taken_only_by_the_search_that_asks_for_it() -> None:
-    """A head's search around its predicted face takes detections down to its ``min_score``;
-    merged with a hand's search (margins above 0), the run goes down to the weaker score and the
-    hand still gets only the strong faces; the whole-frame search takes none of the weak ones."""
-    strong, weak = (140.0, 80.0, 40.0, 40.0), (150.0, 120.0, 40.0, 40.0)
-    detector = _Detector([strong, weak], scores=[0.5, -0.2])
-    finder = FaceFinder(detector, thread=False)  # type: ignore[arg-type]
-    image = np.zeros((240, 320), np.uint8)
-    finder.hold = True
-    head = finder.near(image, (140.0, 90.0, 40.0, 40.0), 2.0, min_score=-0.3)
-    hand = finder.near(image, (142.0, 94.0, 40.0, 40.0), 2.0)
-    finder.submit()
-    assert [kind for kind, _ in detector.runs] == ['region']  # one run for both
-    assert [f.box for f in head.result()] == [strong, weak] and [f.box for f in hand.result()] == [strong]
-    # A search for strong faces only is answered from that run; one for weaker faces than a run
-    # looked for is not.
-    finder.hold = False
-    assert [f.box for f in finder.near(image, (140.0, 90.0, 40.0, 40.0), 1.0).result()] == [strong]
-    assert len(detector.runs) == 1
-    finder.near(image, (140.0, 90.0, 40.0, 40.0), 1.0, min_score=-0.5).result()
-    assert len(detector.runs) == 2
-    finder.new_frame()
-    assert [f.box for f in finder.whole(image).result()] == [strong]
-    assert not Search(FRAME, 1.0, min_score=0.0).contains(Search(FRAME, 1.0, min_score=-0.3))
-
-
-def test_a_head_takes_a_weak_face_only_where_it_predicts_its_face() -> None:
-    """Around a followed head's predicted face the search takes detections down to
-    ``near_face_min_score``, but a weak one counts only within ``WEAK_FACE_REACH`` of the predicted
-    face's widths of its centre; a strong one anywhere in the search. Without a prediction (the
-    whole frame) no weak face counts."""
-    predicted = (140.0, 80.0, 40.0, 40.0)
-    on, beside, strong = (150.0, 90.0, 40.0, 40.0), (180.0, 110.0, 40.0, 40.0), (100.0, 60.0, 40.0, 40.0)
-    detector = _Detector([on, beside, strong], scores=[-0.2, -0.2, 0.3])
-    schedule = FaceSchedule(FaceFinder(detector, thread=False))  # type: ignore[arg-type]
-    parameters = FaceParameters()
-    image = np.zeros((240, 320), np.uint8)
-    found = schedule.detect(image, True, parameters, lambda misses: predicted, lambda faces: faces)
-    assert found is not None and sorted(face.box for face in found) == sorted([on, strong])
-    schedule.finder.new_frame()
-    found = schedule.detect(image, True, parameters, lambda misses: None, lambda faces: faces)
-    assert found is not None and [face.box for face in found] == [strong]
-
-
 def test_every_target_of_a_person_tracker_searches_on_one_detector() -> None:
     """Two people with a head and two hands each: six targets, one detector and one thread."""
     people = PersonTracker(('head', 'hand', 'hand'), max_people=2)
@@ -169,7 +116,7 @@ def test_a_later_persons_head_also_looks_for_small_faces() -> None:
     detector = _Detector([small, large])
     usual = detector.detect
     # The usual whole-frame run misses the small face.
-    detector.detect = lambda image, upsample=1, min_score=None: [f for f in usual(image, upsample) if f.box[2] > 40]
+    detector.detect = lambda image, upsample=1: [f for f in usual(image, upsample) if f.box[2] > 40]
     schedule.finder = FaceFinder(detector, thread=False)  # type: ignore[arg-type]
     parameters = FaceParameters()
     image = np.zeros((240, 320), np.uint8)

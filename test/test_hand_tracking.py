@@ -124,12 +124,10 @@ class _FaceOnTheHand:
 
     box: tuple[float, float, float, float] | None = None
 
-    def detect(self, image: np.ndarray, upsample: int = 1, min_score: float | None = None) -> list[Detection]:
+    def detect(self, image: np.ndarray, upsample: int = 1) -> list[Detection]:
         return [] if self.box is None else [Detection(self.box, 1.0)]
 
-    def detect_near(
-        self, image: np.ndarray, box: tuple[float, ...], reach: float = 2.0, min_score: float | None = None
-    ) -> list[Detection]:
+    def detect_near(self, image: np.ndarray, box: tuple[float, ...], reach: float = 2.0) -> list[Detection]:
         return self.detect(image)
 
 

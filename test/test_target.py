@@ -303,7 +303,7 @@ def test_the_search_around_a_tracked_face_reaches_face_search_reach_sizes() -> N
         tracker = TargetTracker(head_and_shoulders(), TrackerParameters(seed=0), parameters)
         assert tracker.detector is not None, DLIB_MISSING
         crops = []
-        tracker.detector.detect = lambda image, upsample, min_score=None, c=crops: c.append(image.shape) or []
+        tracker.detector.detect = lambda image, upsample, c=crops: c.append(image.shape) or []
         tracker.filter.initialise(np.array([160.0, 120.0, 50.0, 0.0]))
         tracker.status = 'TRACKING'
         tracker.faces._head_search(np.zeros((240, 320), np.uint8), parameters, tracker._predicted_face).result()

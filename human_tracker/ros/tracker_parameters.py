@@ -101,9 +101,6 @@ TARGET_PARAMETERS = (
     ParameterSpec('detect_every', 'Run the face detector on every this many frames.', 1, 100000),
     ParameterSpec('patient_every', 'Frames between face detector runs once several found no face.', 1, 100000),
     ParameterSpec('face_search_reach', 'Face sizes around the predicted face the detector looks within.', 0.5, 10.0),
-    ParameterSpec(
-        'near_face_min_score', "Weakest detector margin taken as a face at a followed head's predicted face.", -1.0, 1.0
-    ),
     ParameterSpec('detector_thread', 'Face detector in its own thread; its faces serve the next frame.', runtime=False),
     ParameterSpec(
         'detector_wait_interval',

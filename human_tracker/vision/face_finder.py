@@ -65,14 +65,12 @@ class Search:
         shared: Whether its run may merge with other searches and answer them. The search for
             small faces runs alone: at its zoom the detector's pyramid gives the faces the other
             targets look for other boxes, and their tracks would change with it.
-        min_score: The weakest detection (the detector's margin) the search takes.
     """
 
     rectangle: Rectangle
     zoom: float
     near: tuple[Box, float] | None = None
     shared: bool = True
-    min_score: float = 0.0
 
     @property
     def cost(self) -> float:
@@ -86,14 +84,7 @@ class Search:
         if not (self.shared and other.shared):
             return self == other
         (l0, t0, r0, b0), (l1, t1, r1, b1) = self.rectangle, other.rectangle
-        return (
-            l0 <= l1
-            and t0 <= t1
-            and r0 >= r1
-            and b0 >= b1
-            and self.zoom >= other.zoom
-            and self.min_score <= other.min_score
-        )
+        return l0 <= l1 and t0 <= t1 and r0 >= r1 and b0 >= b1 and self.zoom >= other.zoom
 
     def holds(self, face: Detection) -> bool:
         """Whether ``face``'s centre lies in the rectangle."""
@@ -103,11 +94,9 @@ class Search:
 
 
 def _merged(a: Search, b: Search) -> Search:
-    """One search covering ``a`` and ``b``: their bounding rectangle at the larger zoom, down to
-    the weaker of their scores."""
+    """One search covering ``a`` and ``b``: their bounding rectangle at the larger zoom."""
     (l0, t0, r0, b0), (l1, t1, r1, b1) = a.rectangle, b.rectangle
-    rectangle = (min(l0, l1), min(t0, t1), max(r0, r1), max(b0, b1))
-    return Search(rectangle, max(a.zoom, b.zoom), min_score=min(a.min_score, b.min_score))
+    return Search((min(l0, l1), min(t0, t1), max(r0, r1), max(b0, b1)), max(a.zoom, b.zoom))
 
 
 def plan_runs(searches: Sequence[Search], frame: Rectangle) -> list[tuple[Search, list[int]]]:
@@ -138,7 +127,7 @@ def plan_runs(searches: Sequence[Search], frame: Rectangle) -> list[tuple[Search
             break
         _, i, j, merged = best
         if merged.rectangle == frame and merged.zoom <= WHOLE_FRAME_ZOOM:
-            merged = Search(frame, WHOLE_FRAME_ZOOM, min_score=merged.min_score)
+            merged = Search(frame, WHOLE_FRAME_ZOOM)
         runs[i] = (merged, runs[i][1] + runs[j][1])
         del runs[j]
     return runs
@@ -163,8 +152,7 @@ class Found:
             self.finder.submit()
         assert self._faces is not None
         faces = self._faces.result()
-        if self._run is not self.search:
-            faces = [f for f in faces if self.search.holds(f) and f.score >= self.search.min_score]
+        faces = faces if self._run is self.search else [face for face in faces if self.search.holds(face)]
         if self.smaller is None:
             return faces
         small = [f for f in self.smaller.result() if f.box[2] < SMALLEST_FACE_IN_FRAME]
@@ -224,13 +212,12 @@ class FaceFinder:
         per frame."""
         return self._frame(image).grey
 
-    def near(self, image: np.ndarray, box: Box, reach: float, min_score: float = 0.0) -> Found:
+    def near(self, image: np.ndarray, box: Box, reach: float) -> Found:
         """Ask for the faces within ``reach`` face sizes of the face ``box`` (x, y, w, h) on the
-        working ``image`` (:meth:`~human_tracker.vision.faces.FaceDetector.detect_near`), scoring
-        ``min_score`` or more."""
+        working ``image`` (:meth:`~human_tracker.vision.faces.FaceDetector.detect_near`)."""
         grey = self.grey(image)
         rectangle, zoom = near_region(grey.shape, box, reach)
-        return self._ask(Found(self, Search(rectangle, zoom, (box, reach), min_score=min_score), grey))
+        return self._ask(Found(self, Search(rectangle, zoom, (box, reach)), grey))
 
     def whole(self, image: np.ndarray, small_faces: bool = False) -> Found:
         """Ask for the faces on the whole working ``image`` (upsampled once: from about 40 px);
@@ -292,11 +279,11 @@ class FaceFinder:
         """Run ``search`` on ``grey`` (as one target's search alone runs when it is one)."""
         if search.near is not None:
             box, reach = search.near
-            run = partial(self.detector.detect_near, grey, box, reach=reach, min_score=search.min_score)
+            run = partial(self.detector.detect_near, grey, box, reach=reach)
         elif search.zoom == WHOLE_FRAME_ZOOM and search.rectangle == (0, 0, grey.shape[1], grey.shape[0]):
-            run = partial(self.detector.detect, grey, upsample=1, min_score=search.min_score)
+            run = partial(self.detector.detect, grey, upsample=1)
         else:
-            run = partial(self.detector.detect_region, grey, search.rectangle, search.zoom, search.min_score)
+            run = partial(self.detector.detect_region, grey, search.rectangle, search.zoom)
         if self._worker is not None:
             return self._worker.submit(run)
         done: Future[list[Detection]] = Future()

@@ -28,10 +28,8 @@ __all__ = [
     'PATIENT_SEARCHES',
     'SEARCH_AFTER_MISSES',
     'SEARCH_REACH',
-    'WEAK_FACE_REACH',
     'FaceSchedule',
     'carry_faces',
-    'where_predicted',
 ]
 
 SEARCH_AFTER_MISSES = 3
@@ -42,9 +40,6 @@ AVOIDED_FACE_REACH = 2.0
 """A hand looks for the face it keeps off within this many of its sizes of where it was found last."""
 PATIENT_SEARCHES = 8
 """Runs in a row without a face after which the detector runs at most every ``patient_every`` frames."""
-WEAK_FACE_REACH = 0.5
-"""A weak face (a margin under 0, ``near_face_min_score``) counts only within this many of the
-predicted face's widths of its centre: only there is it almost always the head's own face."""
 
 
 @dataclass
@@ -185,9 +180,6 @@ class FaceSchedule:
     def _found(self, search: Found, parameters: FaceParameters) -> list[Detection]:
         """Take a search's faces into the bookkeeping."""
         found = search.result()
-        if search.search.near is not None and search.search.min_score < 0.0:
-            predicted = search.search.near[0]
-            found = [face for face in found if face.score >= 0.0 or where_predicted(face.box, predicted)]
         self.detected_on = search.grey
         if found:
             self.faceless_runs = 0
@@ -209,7 +201,7 @@ class FaceSchedule:
         assert self.finder is not None
         face = predicted(self.face_misses)
         if face is not None:
-            return self.finder.near(image, face, parameters.face_search_reach, parameters.near_face_min_score)
+            return self.finder.near(image, face, parameters.face_search_reach)
         self.face_misses = 0
         if self.last_face is not None and self.last_face[2] < SMALLEST_FACE_IN_FRAME:
             return self.finder.near(image, self.last_face, SEARCH_REACH)
@@ -223,13 +215,6 @@ class FaceSchedule:
         if self.last_face is not None and self.face_misses < SEARCH_AFTER_MISSES:
             return self.finder.near(image, self.last_face, AVOIDED_FACE_REACH)
         return self.finder.whole(image)
-
-
-def where_predicted(face: Box, predicted: Box) -> bool:
-    """Whether the ``face`` box (x, y, w, h) is centred within :data:`WEAK_FACE_REACH` of the
-    ``predicted`` face's widths of its centre."""
-    (x, y, w, h), (px, py, pw, ph) = face, predicted
-    return bool(np.hypot(x + w / 2 - px - pw / 2, y + h / 2 - py - ph / 2) <= WEAK_FACE_REACH * pw)
 
 
 def carry_faces(

@@ -87,7 +87,7 @@ class FaceDetector:
             self._model = self._dlib.get_frontal_face_detector()
         return self._model
 
-    def detect(self, image: np.ndarray, upsample: int = 1, min_score: float | None = None) -> list[Detection]:
+    def detect(self, image: np.ndarray, upsample: int = 1) -> list[Detection]:
         """Faces in ``image`` ``(H, W) uint8`` (or BGR), boxes in its pixels, best first.
 
         ``upsample`` doubles the image this many times first: faces from about 40 px are found
@@ -95,8 +95,7 @@ class FaceDetector:
         """
         if image.ndim == 3:
             image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-        threshold = self.min_score if min_score is None else min_score
-        rectangles, scores, views = self.load().run(self._contrast.apply(image), upsample, threshold)
+        rectangles, scores, views = self.load().run(self._contrast.apply(image), upsample, self.min_score)
         found = [
             Detection((float(r.left()), float(r.top()), float(r.width()), float(r.height())), float(score), view=int(v))
             for r, score, v in zip(rectangles, scores, views, strict=True)
@@ -104,12 +103,7 @@ class FaceDetector:
         return sorted(found, key=lambda d: -d.score)
 
     def detect_near(
-        self,
-        image: np.ndarray,
-        box: tuple[float, float, float, float],
-        reach: float = 2.0,
-        zoom_factor: float = 1.0,
-        min_score: float | None = None,
+        self, image: np.ndarray, box: tuple[float, float, float, float], reach: float = 2.0, zoom_factor: float = 1.0
     ) -> list[Detection]:
         """Faces within ``reach`` times the face ``box``'s size (x, y, w, h) of its centre.
 
@@ -118,11 +112,9 @@ class FaceDetector:
         tens, and faces smaller than the whole-frame search finds.
         """
         rectangle, zoom = near_region(image.shape, box, reach, zoom_factor)
-        return self.detect_region(image, rectangle, zoom, min_score)
+        return self.detect_region(image, rectangle, zoom)
 
-    def detect_region(
-        self, image: np.ndarray, rectangle: tuple[int, int, int, int], zoom: float, min_score: float | None = None
-    ) -> list[Detection]:
+    def detect_region(self, image: np.ndarray, rectangle: tuple[int, int, int, int], zoom: float) -> list[Detection]:
         """Faces in the ``rectangle`` (left, top, right, bottom) of ``image`` resized by ``zoom``
         (not upsampled further), boxes in ``image``'s pixels; none in a rectangle under 8 px."""
         left, top, right, bottom = rectangle
@@ -133,7 +125,7 @@ class FaceDetector:
         crop = cv2.resize(crop, None, fx=zoom, fy=zoom, interpolation=interpolation)
         return [
             d._replace(box=(left + bx / zoom, top + by / zoom, bw / zoom, bh / zoom))
-            for d in self.detect(crop, upsample=0, min_score=min_score)
+            for d in self.detect(crop, upsample=0)
             for bx, by, bw, bh in [d.box]
         ]
 

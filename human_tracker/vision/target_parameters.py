@@ -115,11 +115,6 @@ class FaceParameters:
         face_search_reach: While the head is tracked the detector looks within this many
             face sizes of the predicted face; a run's time goes with its square
             (docs/decisions/face-search-reach.md).
-        near_face_min_score: The weakest detection (dlib's SVM margin) that search takes as a
-            face; the whole-frame search, which starts heads, takes margins above 0. A weak
-            detection where the followed head's face is predicted is almost always that face
-            (as a tracked object's low-score detections in ByteTrack), and a face turned,
-            tilted or in shadow is found only so (docs/decisions/weak-faces-near-the-head.md).
         detector_thread: Run the detector in its own thread: a run on frame k goes on while
             the tracker finishes frame k and the next frame arrives, and its faces are used on
             frame k + 1, which waits for them (a replay gives the same track on any machine).
@@ -136,7 +131,6 @@ class FaceParameters:
     detect_every: int = 1
     patient_every: int = 8
     face_search_reach: float = 2.0
-    near_face_min_score: float = -0.3
     detector_thread: bool = True
     detector_wait_interval: float = 0.05
 
@@ -155,7 +149,6 @@ class FaceParameters:
             detect_every=(self.detect_every >= 1, '>= 1'),
             patient_every=(self.patient_every >= 1, '>= 1'),
             face_search_reach=(self.face_search_reach > 0.0, '> 0'),
-            near_face_min_score=(-1.0 <= self.near_face_min_score <= 1.0, 'in [-1, 1]'),
             detector_wait_interval=(self.detector_wait_interval >= 0.0, '>= 0 (s)'),
         )
 

@@ -15,6 +15,7 @@ from human_tracker.vision.lifecycle import (
     Event,
     TrackState,
     UsualFit,
+    back_where_lost,
     transition,
     weak_frame,
 )
@@ -93,3 +94,18 @@ def test_a_frame_is_weak_by_the_silhouettes_evidence_and_a_change_of_colour_alon
     assert not weak_frame(_estimate(0.75, appearance_distance=0.8), p, with_mask, True, usual, gone)
     assert weak_frame(_estimate(0.75, appearance_distance=0.8), p, with_mask, True, usual, beside)
     assert weak_frame(_estimate(0.55, appearance_distance=0.8), p, with_mask, True, usual, gone)  # the fit fallen too
+
+
+def test_a_lost_head_is_back_where_it_was_lost_after_twice_lost_frames_steady() -> None:
+    """Back: its contour held for 2 ``lost_frames`` frames, within its width of where it was
+    lost and at that size (within 1.25). Not back: sooner, never lost, moved more than its width,
+    or grown or shrunk beyond the factor."""
+    parameters = LossParameters(lost_frames=5)
+    lost_at = np.array([100.0, 80.0, 40.0, 0.0])
+    here = np.array([120.0, 110.0, 45.0, 0.1])  # 36 px away, 1.125 times the size
+    assert back_where_lost(here, lost_at, 10, parameters)
+    assert not back_where_lost(here, lost_at, 9, parameters)
+    assert not back_where_lost(here, None, 50, parameters)
+    assert not back_where_lost(np.array([130.0, 110.0, 40.0, 0.0]), lost_at, 50, parameters)  # 42 px
+    assert not back_where_lost(np.array([100.0, 80.0, 51.0, 0.0]), lost_at, 50, parameters)
+    assert not back_where_lost(np.array([100.0, 80.0, 31.0, 0.0]), lost_at, 50, parameters)

@@ -4,8 +4,9 @@ A target is WAITING (never taken up, or reset; its filter may try a hypothesis),
 LOST (taken up once, not followed now; its filter may still hold an estimate). Every change of a target's state is
 :func:`transition` applied to an :class:`Event`: a reader can list every way a track starts
 and ends here. A target is LOST after ``lost_frames`` weak frames in a row
-(:func:`weak_frame`), and TRACKING again when its evidence holds (:func:`recovers`), or when a
-face or a hypothesis restarts it (:mod:`~human_tracker.vision.target`).
+(:func:`weak_frame`), and TRACKING again when its evidence holds (:func:`recovers`,
+:func:`back_where_lost`), or when a face or a hypothesis restarts it
+(:mod:`~human_tracker.vision.target`).
 """
 
 from __future__ import annotations
@@ -14,6 +15,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum, StrEnum
 from typing import TYPE_CHECKING
+
+import numpy as np
 
 if TYPE_CHECKING:
     from human_tracker.vision.evidence import Cues
@@ -28,6 +31,7 @@ __all__ = [
     'Event',
     'TrackState',
     'UsualFit',
+    'back_where_lost',
     'recovers',
     'transition',
     'weak_frame',
@@ -35,6 +39,8 @@ __all__ = [
 
 FIT_MEMORY = 30
 """Frames over which :class:`UsualFit` forgets (its exponential mean's time constant)."""
+WHERE_LOST_SIZE = 1.25
+"""A head back where it was lost is within this factor of the size it was lost at."""
 
 
 class TrackState(StrEnum):
@@ -142,3 +148,19 @@ def recovers(
     frames in a row that are not weak (skin labels flicker off a hand for a few frames)."""
     by_edges = weak_frames == 0 and not region and not faces
     return by_edges or (skin and steady_frames >= parameters.lost_frames)
+
+
+def back_where_lost(
+    state: np.ndarray, lost_at: np.ndarray | None, steady_frames: int, parameters: LossParameters
+) -> bool:
+    """Whether a LOST head is TRACKING again where it was lost: its contour has held for twice
+    ``lost_frames`` frames in a row that are not weak, its estimate ``state`` (x, y, scale, θ)
+    within its width (``scale``) of the state ``lost_at`` it was lost at, and of that size
+    (within :data:`WHERE_LOST_SIZE`). A head lost while nothing moved it away (a book raised in
+    front of the face, colours changing with a motion mask) is the same person; one lost and
+    carried elsewhere comes back only through a face or a hypothesis."""
+    if lost_at is None or steady_frames < 2 * parameters.lost_frames:
+        return False
+    ratio = state[2] / lost_at[2]
+    near = np.hypot(state[0] - lost_at[0], state[1] - lost_at[1]) <= lost_at[2]
+    return bool(near and 1 / WHERE_LOST_SIZE <= ratio <= WHERE_LOST_SIZE)

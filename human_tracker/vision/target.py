@@ -44,7 +44,7 @@ from human_tracker.vision.evidence import Cues, Evidence, WorkingFrame, working_
 from human_tracker.vision.face_schedule import SEARCH_AFTER_MISSES, carry_faces
 from human_tracker.vision.faces import Detection
 from human_tracker.vision.facing import Facing, face_visible, facing_after_run, size_known
-from human_tracker.vision.lifecycle import LOST, TRACKING, Event, recovers, transition, weak_frame
+from human_tracker.vision.lifecycle import LOST, TRACKING, Event, back_where_lost, recovers, transition, weak_frame
 from human_tracker.vision.outcomes import TargetResult
 from human_tracker.vision.resolution import working_scale
 from human_tracker.vision.starts import (
@@ -346,15 +346,21 @@ class TargetTracker(Track):
             elif (estimate.motion_support if cues.motion is not None else estimate.confidence) + p.switch_margin >= 1:
                 # A target found in a region is learnt once no hypothesis could beat its support.
                 self.appearance = AppearanceModel.learn(bins, state, self._own_region(), p.appearance_parts)
+        faces = self.parameters.proposals == 'faces' and self.detector is not None
         if self.weak_frames >= p.lost_frames or seen_on_face:
+            if self.status == TRACKING:
+                self.lost_at = estimate.state.copy()
             self.status = transition(self.status, Event.LOSS)
-        elif self.status == LOST and recovers(
-            self.weak_frames,
-            self.steady_frames,
-            self.parameters,
-            region=proposals.region is not None,
-            faces=self.parameters.proposals == 'faces' and self.detector is not None,
-            skin=cues.likelihood_skin is not None,
+        elif self.status == LOST and (
+            recovers(
+                self.weak_frames,
+                self.steady_frames,
+                self.parameters,
+                region=proposals.region is not None,
+                faces=faces,
+                skin=cues.likelihood_skin is not None,
+            )
+            or (faces and back_where_lost(estimate.state, self.lost_at, self.steady_frames, self.parameters))
         ):
             self.status = transition(self.status, Event.RECOVERY)
         if self.status != TRACKING:

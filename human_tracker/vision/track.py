@@ -61,6 +61,9 @@ class Track:
     # A face that would take the holding head off its contour, seen on one run: its head state
     # and the schedule's frame count then (:meth:`TargetTracker._restart_on_face`).
     disputing_face: tuple[np.ndarray, int] | None = field(default=None, init=False, repr=False)
+    # The estimate (x, y, scale, θ, camera pixels) on the frame it was last lost: a LOST head
+    # whose contour holds there again is TRACKING (:func:`~.lifecycle.back_where_lost`).
+    lost_at: np.ndarray | None = field(default=None, init=False, repr=False)
     # The edge fit of its steady frames, what a weak frame falls below.
     usual_fit: UsualFit = field(default_factory=UsualFit, init=False)
     camera: CameraShake = field(default_factory=CameraShake, init=False)
@@ -133,6 +136,7 @@ class Track:
         self.frames_without_own_face = 0
         self.disputing_face = None
         self.usual_fit = UsualFit()
+        self.lost_at = None
         self.start_box = tuple(float(v) for v in box)  # type: ignore[assignment]
         self.started_from_box = True
         self.faces.drop_pending()  # its faces belong to the frame before the box

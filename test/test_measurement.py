@@ -42,6 +42,25 @@ def test_eq2_distance_squared_or_miss_penalty() -> None:
     assert costs[0] == pytest.approx(100) and matched[0] == 0
 
 
+def test_a_contour_smaller_than_the_reference_scale_is_measured_in_its_own_size() -> None:
+    # s = 1 against s_ref = 2: δ = 8 searches 4 px, and the edge 3 px away counts (3 / 0.5)² = 36;
+    # δ = 5 searches 2.5 px and misses it. Σ d² stays in pixels. At s >= s_ref: eq. 2 as it is.
+    particles = np.array([[10.0, 10.0, 1.0, 0.0]])
+    costs, matched, _, squared_distances, _ = contour_costs(
+        _scene(), particles, POINTS, NORMALS, search_halfwidth=8, miss_penalty=50, reference_scale=2.0
+    )
+    assert costs[0] == pytest.approx(36 + 50) and matched[0] == 1 and squared_distances[0] == pytest.approx(9)
+    costs, matched, _, _, _ = contour_costs(
+        _scene(), particles, POINTS, NORMALS, search_halfwidth=5, miss_penalty=50, reference_scale=2.0
+    )
+    assert costs[0] == pytest.approx(100) and matched[0] == 0
+    for reference in (0.0, 1.0, 0.5):
+        costs, _, _, _, _ = contour_costs(
+            _scene(), particles, POINTS, NORMALS, search_halfwidth=5, miss_penalty=50, reference_scale=reference
+        )
+        assert costs[0] == pytest.approx(9 + 50)
+
+
 def test_eq2_searches_both_sides_and_takes_the_closest_edge() -> None:
     edges = _scene()
     edges[:, 8] = VERTICAL_EDGE  # 2 px on the other side of x = 10: closer than column 13

@@ -46,7 +46,13 @@ def test_step_before_initialise_and_bad_parameters() -> None:
     tracker = ContourTracker(head_and_shoulders())
     with pytest.raises(RuntimeError, match='before initialise'):
         tracker.step(np.zeros((10, 10), np.uint8))
-    for bad in ({'num_particles': 0}, {'search_halfwidth': 0.0}, {'likelihood_gain': -1.0}, {'velocity_damping': 2.0}):
+    for bad in (
+        {'num_particles': 0},
+        {'search_halfwidth': 0.0},
+        {'search_reference_scale': -1.0},
+        {'likelihood_gain': -1.0},
+        {'velocity_damping': 2.0},
+    ):
         with pytest.raises(ValueError, match=next(iter(bad))):
             ContourTracker(head_and_shoulders(), TrackerParameters(**bad))
 

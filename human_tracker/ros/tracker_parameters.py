@@ -50,6 +50,12 @@ FILTER_PARAMETERS = (
         'search_halfwidth', 'δ (eq. 2): pixels searched each side of a contour point along its normal.', 0.5, 500.0
     ),
     ParameterSpec('miss_penalty', 'ρ (eqs. 2-3): cost of a point with no edge within δ.', 0.0, 1e9),
+    ParameterSpec(
+        'search_reference_scale',
+        'Scale (px) below which a contour searches δ in proportion and counts distances in its own size; 0: off.',
+        0.0,
+        1e6,
+    ),
     ParameterSpec('likelihood_gain', 'K (eq. 1): gain of the likelihood exp(-K Σ φ).', 1e-9, 1e3),
     ParameterSpec(
         'orientation_tolerance',

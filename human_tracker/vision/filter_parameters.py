@@ -26,6 +26,10 @@ class TrackerParameters:
             θ in radians.
         search_halfwidth: δ in eq. 2, pixels searched each side of a point on its normal.
         miss_penalty: ρ in eqs. 2-3, cost of a point with no edge within δ.
+        search_reference_scale: s_ref, pixels per template unit: a particle of scale s < s_ref
+            searches δ s / s_ref and its distances count times s_ref / s, so that a contour
+            shrunk into a face's inner features does not fit as well as the whole outline;
+            0 (the default): δ and distances in pixels at every scale, as in the paper.
         likelihood_gain: K in eq. 1.
         orientation_tolerance: Largest angle (radians) between an edge's gradient and the
             contour normal for the edge to count as z(j); π/2 accepts any edge (the paper).
@@ -69,6 +73,7 @@ class TrackerParameters:
     kld_bin: tuple[float, float, float, float] = (0.1, 0.1, 0.05, 0.1)
     search_halfwidth: float = 12.0
     miss_penalty: float = 144.0
+    search_reference_scale: float = 0.0
     likelihood_gain: float = 0.01
     orientation_tolerance: float = 0.5
     interior_weight: float = 2.0
@@ -100,6 +105,10 @@ class TrackerParameters:
             ),
             (self.search_halfwidth > 0, f'search_halfwidth (δ) must be > 0, got {self.search_halfwidth}'),
             (self.miss_penalty >= 0, f'miss_penalty (ρ) must be >= 0, got {self.miss_penalty}'),
+            (
+                self.search_reference_scale >= 0,
+                f'search_reference_scale must be >= 0 (0: off), got {self.search_reference_scale}',
+            ),
             (
                 0 < self.orientation_tolerance <= np.pi / 2,
                 f'orientation_tolerance must be in (0, π/2], got {self.orientation_tolerance}',
@@ -158,6 +167,7 @@ class TrackerParameters:
             self,
             search_halfwidth=self.search_halfwidth * factor,
             miss_penalty=self.miss_penalty * factor**2,
+            search_reference_scale=self.search_reference_scale * factor,
             likelihood_gain=self.likelihood_gain / factor**2,
             process_noise=(x * factor, y * factor, s, theta),
             initial_spread=(sx * factor, sy * factor, ss, stheta),

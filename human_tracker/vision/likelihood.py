@@ -102,6 +102,7 @@ def contour_term(
         motion=observation.motion,
         orientation_tolerance=p.orientation_tolerance,
         labels=labels,
+        reference_scale=p.search_reference_scale,
     )
     costs = fit.costs
     if labels is not None and p.variant_penalty:

@@ -113,6 +113,7 @@ def _contour_costs(
     search_halfwidth: float,
     miss_penalty: float,
     orientation_tolerance: float,
+    reference_scale: float,
     costs: np.ndarray,
     matched: np.ndarray,
     moving: np.ndarray,
@@ -120,7 +121,6 @@ def _contour_costs(
 ) -> None:
     height, width = edges.shape
     num_points = points.shape[1]
-    reach = int(np.ceil(search_halfwidth))
     miss = 2.0 * miss_penalty if use_motion else miss_penalty
     # Edge labels are orientations in [0, 180): two within the tolerance t of each other either
     # way round the half-turn are |a - b| <= t or >= 180 - t apart (every pair when t >= 90).
@@ -138,6 +138,11 @@ def _contour_costs(
         c = np.cos(particles[i, 3])
         s = np.sin(particles[i, 3])
         turn_degrees = np.degrees(particles[i, 3]) % 180.0
+        # A contour smaller than the reference scale searches δ in proportion and counts its
+        # distances in the reference's pixels: the inner features of a face then do not fit a
+        # shrunken head-and-shoulders as well as the outline fits the whole one.
+        shrink = min(1.0, scale / reference_scale) if reference_scale > 0.0 else 1.0
+        reach = int(np.ceil(search_halfwidth * shrink))
         total = 0.0
         found_total = 0.0
         hits = 0
@@ -168,8 +173,8 @@ def _contour_costs(
                 if found >= 0.0:
                     break
             if found >= 0.0:
-                phi = found * found
-                found_total += phi
+                found_total += found * found
+                phi = (found / shrink) * (found / shrink)
                 if use_motion:
                     if motion[zv, zu] == 0:
                         phi += miss_penalty
@@ -196,6 +201,7 @@ def contour_costs(
     motion: np.ndarray | None = None,
     orientation_tolerance: float = np.pi / 2,
     labels: np.ndarray | None = None,
+    reference_scale: float = 0.0,
 ) -> ContourFit:
     """Σ_j φ(j) for every particle (eq. 2, or eq. 3-4 when a motion mask is given).
 
@@ -213,6 +219,9 @@ def contour_costs(
         orientation_tolerance: Largest angle, radians, between an edge's gradient and the
             contour normal for the edge to count; π/2 accepts every edge (the paper's model).
         labels: ``(P,)`` each particle's shape, an index into the K shapes (0 when None).
+        reference_scale: s_ref, pixels per template unit: a particle of scale s < s_ref
+            searches δ s / s_ref and its d(j) count times s_ref / s (the fit measured in the
+            contour's own size); 0: δ and d(j) in pixels at every scale, as in the paper.
 
     Returns:
         The costs Σ_j φ(j) and, per particle, how many points found an edge within δ, how
@@ -243,6 +252,7 @@ def contour_costs(
         float(search_halfwidth),
         float(miss_penalty),
         float(orientation_tolerance),
+        float(reference_scale),
         costs,
         matched,
         moving,

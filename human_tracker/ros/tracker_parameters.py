@@ -115,6 +115,13 @@ TARGET_PARAMETERS = (
         3600.0,
     ),
     ParameterSpec(
+        'box_search_reach',
+        "Box widths around the contour's place a head's box is searched for by its look between faces; 0: off.",
+        0.0,
+        2.0,
+    ),
+    ParameterSpec('box_min_match', "Least normalised cross-correlation of the box's look that moves it.", -1.0, 1.0),
+    ParameterSpec(
         'compensate_camera', "Carry the particles with the camera's shake (as the background stage measures it)."
     ),
     ParameterSpec('estimate_camera_motion', "Without a background stage in process, measure the camera's motion here."),

@@ -322,8 +322,11 @@ class TargetTracker(Track):
         if face is not None and self.status == TRACKING:
             self._anchor_on_face(face, state, given_box, initialised)
             self.faces.last_face = face.box
+        looked = self._box_by_look(frame.grey, state, face, given_box)
         estimate = estimate.scaled(1.0 / self.scale)
-        if self.anchor.box_relation is not None:
+        if looked is not None:
+            estimate = replace(estimate, box=tuple(v / self.scale for v in looked))
+        elif self.anchor.box_relation is not None:
             estimate = replace(estimate, box=self.anchor.box_relation.box(estimate.state))
         self.reported_state = state
         weak = on_face or weak_frame(
@@ -371,6 +374,23 @@ class TargetTracker(Track):
             # Only a size held as long as a loss takes changes the frame's size.
             self._fit_resolution(float(estimate.state[2]), self.scale)
         return estimate
+
+    def _box_by_look(
+        self, grey: np.ndarray, state: np.ndarray, face: Detection | None, given_box: Box | None
+    ) -> Box | None:
+        """A head's box on this frame found by its look (``box_search_reach``,
+        :class:`~.box_look.BoxLook`), learnt where the box's place is known: the start box and
+        each face that anchors it. None: where the contour places it (working pixels)."""
+        p = self.parameters
+        if p.box_search_reach <= 0.0 or p.proposals != 'faces' or self.anchor.box_relation is None:
+            return None
+        box = self.anchor.box_relation.box(state)
+        if given_box is not None or (face is not None and self.status == TRACKING) or self.box_look.patch is None:
+            self.box_look.learn(grey, box)
+            return None
+        if self.status != TRACKING:
+            return None
+        return self.box_look.find(grey, box, p.box_search_reach, p.box_min_match)
 
     def _colours_beside(self, bins: np.ndarray | None, state: np.ndarray) -> bool:
         """Whether the target's colours are in view beside the contour at ``state`` (working

@@ -124,6 +124,12 @@ class FaceParameters:
             itself: faces a frame late are carried by the filter's predicted motion, which a
             person turning back outruns when frames are far apart (docs/decisions/slow-camera.md).
             Frames without stamps never wait.
+        box_search_reach: With ``faces`` proposals, between the faces that anchor it a head's
+            reported box is searched for by its grey-level look this many box widths to every
+            side of where the contour places it (:mod:`~human_tracker.vision.box_look`); 0: the
+            box is where the contour places it.
+        box_min_match: The least normalised cross-correlation, in [-1, 1], of the box's look
+            that moves it.
     """
 
     proposals: str = 'faces'
@@ -133,6 +139,8 @@ class FaceParameters:
     face_search_reach: float = 2.0
     detector_thread: bool = True
     detector_wait_interval: float = 0.05
+    box_search_reach: float = 0.35
+    box_min_match: float = 0.6
 
     @property
     def wants_faces(self) -> bool:
@@ -150,6 +158,8 @@ class FaceParameters:
             patient_every=(self.patient_every >= 1, '>= 1'),
             face_search_reach=(self.face_search_reach > 0.0, '> 0'),
             detector_wait_interval=(self.detector_wait_interval >= 0.0, '>= 0 (s)'),
+            box_search_reach=(0.0 <= self.box_search_reach <= 2.0, 'in [0, 2] (box widths)'),
+            box_min_match=(-1.0 <= self.box_min_match <= 1.0, 'in [-1, 1]'),
         )
 
 

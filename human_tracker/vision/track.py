@@ -16,6 +16,7 @@ import numpy as np
 
 from human_tracker.vision.anchoring import FRESH_FACE_FRAMES, BoxAnchor, FacePlace
 from human_tracker.vision.appearance import AppearanceModel
+from human_tracker.vision.box_look import BoxLook
 from human_tracker.vision.boxes import Box, BoxRelation
 from human_tracker.vision.camera_motion import CameraShake
 from human_tracker.vision.evidence import FrameSettings
@@ -75,6 +76,8 @@ class Track:
     # Where a followed head faces: its detector runs' verdicts (:mod:`~human_tracker.vision.facing`).
     facing_votes: FacingVotes = field(default_factory=FacingVotes, init=False)
     face_look: FaceLook = field(default_factory=FaceLook, init=False)
+    # The reported box's grey levels, for a head between the faces that anchor it.
+    box_look: BoxLook = field(default_factory=BoxLook, init=False)
 
     def __post_init__(self) -> None:
         self.parameters.validate()
@@ -143,6 +146,7 @@ class Track:
         self.appearance = None
         self.face_look.clear()
         self.face_place.clear()
+        self.box_look.clear()
         self.status = transition(self.status, Event.START)
         self.weak_frames = 0
 
@@ -169,6 +173,7 @@ class Track:
         self.facing_votes.clear()
         self.face_look.clear()
         self.face_place.clear()
+        self.box_look.clear()
 
     def frame_settings(self, frame_width: int) -> FrameSettings:
         """What this track's working frame of a frame ``frame_width`` pixels wide depends on."""

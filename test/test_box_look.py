@@ -1,0 +1,67 @@
+"""A head's reported box found again by its grey-level look (:mod:`human_tracker.vision.box_look`)."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from human_tracker.vision.box_look import BoxLook
+from human_tracker.vision.target_parameters import TargetParameters
+
+BOX = (60.0, 40.0, 30.0, 36.0)
+
+
+def _texture(seed: int) -> np.ndarray:
+    noise = np.random.default_rng(seed).integers(0, 256, (120, 160)).astype(np.uint8)
+    return cv2.GaussianBlur(noise, (0, 0), 2.0)
+
+
+def _learnt(grey: np.ndarray, box: tuple[float, float, float, float] = BOX) -> BoxLook:
+    look = BoxLook()
+    look.learn(grey, box)
+    return look
+
+
+def test_the_look_is_found_where_it_moved_within_the_reach() -> None:
+    grey = _texture(0)
+    moved = np.roll(grey, (4, -6), axis=(0, 1))  # 4 px down, 6 px left
+    assert _learnt(grey).find(moved, BOX, reach=0.35, min_match=0.6) == (54.0, 44.0, 30.0, 36.0)
+
+
+def test_a_look_moved_beyond_the_reach_or_gone_moves_no_box() -> None:
+    grey = _texture(0)
+    look = _learnt(grey)
+    assert look.find(np.roll(grey, 20, axis=1), BOX, reach=0.35, min_match=0.6) is None  # 20 px > 0.35 x 30
+    assert look.find(_texture(1), BOX, reach=0.35, min_match=0.6) is None
+
+
+def test_a_search_window_leaving_the_frame_moves_no_box() -> None:
+    grey = _texture(0)
+    near_edge = (2.0, 40.0, 30.0, 36.0)
+    assert _learnt(grey, near_edge).find(grey, near_edge, reach=0.35, min_match=0.6) is None
+
+
+def test_no_look_is_learnt_from_a_box_too_small_or_outside_the_frame() -> None:
+    grey = _texture(0)
+    assert _learnt(grey, (60.0, 40.0, 6.0, 8.0)).patch is None
+    assert _learnt(grey, (150.0, 40.0, 30.0, 36.0)).patch is None
+    assert BoxLook().find(grey, BOX, reach=0.35, min_match=0.6) is None
+
+
+def test_a_look_learnt_at_one_size_is_found_at_another() -> None:
+    grey = _texture(0)
+    look = _learnt(grey)
+    larger = cv2.resize(grey, None, fx=1.2, fy=1.2, interpolation=cv2.INTER_LINEAR)
+    x, y, w, h = (1.2 * v for v in BOX)
+    found = look.find(larger, (x + 3.0, y - 2.0, w, h), reach=0.35, min_match=0.6)
+    assert found is not None
+    assert abs(found[0] - x) <= 1.0 and abs(found[1] - y) <= 1.0
+
+
+@pytest.mark.parametrize(
+    ('name', 'value'), [('box_search_reach', -0.1), ('box_search_reach', 3.0), ('box_min_match', 1.5)]
+)
+def test_a_box_search_out_of_range_is_refused(name: str, value: float) -> None:
+    with pytest.raises(ValueError, match=name):
+        TargetParameters(**{name: value}).validate()

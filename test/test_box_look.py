@@ -60,8 +60,29 @@ def test_a_look_learnt_at_one_size_is_found_at_another() -> None:
 
 
 @pytest.mark.parametrize(
-    ('name', 'value'), [('box_search_reach', -0.1), ('box_search_reach', 3.0), ('box_min_match', 1.5)]
+    ('name', 'value'),
+    [('box_search_reach', -0.1), ('box_search_reach', 3.0), ('box_min_match', 1.5), ('box_look_rate', 1.5)],
 )
 def test_a_box_search_out_of_range_is_refused(name: str, value: float) -> None:
     with pytest.raises(ValueError, match=name):
         TargetParameters(**{name: value}).validate()
+
+
+def test_a_look_is_found_at_its_own_size_around_a_box_too_small() -> None:
+    # A contour shrunk onto the features inside a face carries a box a third of the face's size.
+    grey = _texture(0)
+    small = (69.0, 50.0, 10.0, 12.0)
+    found = _learnt(grey).find(grey, small, reach=0.35, min_match=0.6)
+    assert found is not None
+    assert np.allclose(found, BOX, atol=1.0)
+
+
+def test_a_matched_look_is_blended_into_the_look_at_its_rate() -> None:
+    before, after = _texture(0), _texture(1)
+    look = _learnt(before)
+    look.learn(after, BOX, rate=0.25)
+    x, y, w, h = (round(v) for v in BOX)
+    expected = 0.75 * before[y : y + h, x : x + w] + 0.25 * after[y : y + h, x : x + w]
+    assert look.patch is not None
+    assert np.allclose(look.patch, expected, atol=1e-3)
+    assert _learnt(before).find(after, BOX, reach=0.35, min_match=0.6) is None  # the old look alone: gone

@@ -121,6 +121,7 @@ TARGET_PARAMETERS = (
         2.0,
     ),
     ParameterSpec('box_min_match', "Least normalised cross-correlation of the box's look that moves it.", -1.0, 1.0),
+    ParameterSpec('box_look_rate', "Share of a matched box's grey levels blended into its look.", 0.0, 1.0),
     ParameterSpec(
         'compensate_camera', "Carry the particles with the camera's shake (as the background stage measures it)."
     ),

@@ -19,10 +19,20 @@ import numpy as np
 
 from human_tracker.vision.boxes import Box
 
-__all__ = ['MIN_PATCH_WIDTH', 'BoxLook']
+__all__ = ['MIN_PATCH_WIDTH', 'SIZE_STEP', 'BoxLook']
 
 MIN_PATCH_WIDTH = 8
 """Boxes narrower than this (working pixels) have too few pixels to learn a look from."""
+
+SIZE_STEP = 1.25
+"""The largest ratio of one size searched to the next."""
+
+
+def _sizes_between(first: float, last: float) -> np.ndarray:
+    """Widths from ``first`` to ``last`` in a geometric progression of steps at most
+    :data:`SIZE_STEP`; ``first`` alone when they are within one step."""
+    ratio = abs(np.log(last / first)) / np.log(SIZE_STEP)
+    return np.geomspace(first, last, int(np.ceil(ratio)) + 1) if ratio > 1.0 else np.array([first])
 
 
 @dataclass
@@ -30,48 +40,65 @@ class BoxLook:
     """The grey patch of a head's reported box, learnt where the box's place is known.
 
     Attributes:
-        patch: The patch (uint8 grey, the box's own pixels); None until one is learnt.
+        patch: The patch (float32 grey levels, the box's own pixels); None until one is learnt.
     """
 
     patch: np.ndarray | None = field(default=None, repr=False)
 
-    def learn(self, grey: np.ndarray, box: Box) -> None:
-        """Learn the look of ``box`` (x, y, w, h) on ``grey``; a box narrower than
-        :data:`MIN_PATCH_WIDTH` or not wholly in the frame keeps the patch learnt before."""
+    def learn(self, grey: np.ndarray, box: Box, rate: float = 1.0) -> None:
+        """Learn the look of ``box`` (x, y, w, h) on ``grey``: the patch there, or with ``rate``
+        below 1 that share of it blended into the patch learnt before (resized to that patch's
+        size). A box narrower than :data:`MIN_PATCH_WIDTH` or not wholly in the frame keeps
+        the patch learnt before."""
         x, y, w, h = box
         x0, y0, x1, y1 = round(x), round(y), round(x + w), round(y + h)
-        if w > MIN_PATCH_WIDTH and x0 >= 0 and y0 >= 0 and x1 <= grey.shape[1] and y1 <= grey.shape[0]:
-            self.patch = grey[y0:y1, x0:x1].copy()
+        if w <= MIN_PATCH_WIDTH or x0 < 0 or y0 < 0 or x1 > grey.shape[1] or y1 > grey.shape[0]:
+            return
+        seen = grey[y0:y1, x0:x1].astype(np.float32)
+        if self.patch is None or rate >= 1.0:
+            self.patch = seen
+            return
+        seen = cv2.resize(seen, self.patch.shape[::-1], interpolation=cv2.INTER_AREA)
+        self.patch = (1.0 - rate) * self.patch + rate * seen
 
     def find(self, grey: np.ndarray, box: Box, reach: float, min_match: float) -> Box | None:
         """Where the learnt look is on ``grey`` near ``box`` (x, y, w, h), the box the contour places.
 
+        The look is searched at the box's size, at the size it was learnt at and at sizes
+        between (steps of at most :data:`SIZE_STEP`): a contour that shrank or grew onto other
+        edges carries a box of the wrong size, and the look, not the contour, then says how
+        large the head is.
+
         Args:
             grey: The frame's grey image.
-            box: The box where the contour places it; the patch is resized to its size.
-            reach: The search extends this many box widths to every side of ``box``.
+            box: The box where the contour places it; every search is centred on it.
+            reach: Each search extends this many widths of the size searched to every side.
             min_match: The least normalised cross-correlation (``TM_CCOEFF_NORMED``, in [-1, 1])
                 of a match.
 
         Returns:
-            ``box`` moved to the best match, or None: no patch, the search window not wholly
-            in the frame, or no match of at least ``min_match``.
+            The best match's box (its size the one searched), or None: no patch, no search
+            window wholly in the frame, or no match of at least ``min_match``.
         """
         if self.patch is None:
             return None
         x, y, w, h = box
-        width, height = max(MIN_PATCH_WIDTH, round(w)), max(MIN_PATCH_WIDTH, round(h))
-        margin = round(reach * w)
-        x0, y0 = round(x) - margin, round(y) - margin
-        x1, y1 = x0 + width + 2 * margin, y0 + height + 2 * margin
-        if x0 < 0 or y0 < 0 or x1 > grey.shape[1] or y1 > grey.shape[0]:
-            return None
-        patch = cv2.resize(self.patch, (width, height), interpolation=cv2.INTER_AREA)
-        scores = cv2.matchTemplate(grey[y0:y1, x0:x1], patch, cv2.TM_CCOEFF_NORMED)
-        _, best, _, (dx, dy) = cv2.minMaxLoc(scores)
-        if best < min_match:
-            return None
-        return float(x0 + dx), float(y0 + dy), w, h
+        centre_x, centre_y = x + w / 2, y + h / 2
+        best, found = min_match, None
+        for size_w in _sizes_between(w, self.patch.shape[1]):
+            size_h = size_w * h / w
+            width, height = max(MIN_PATCH_WIDTH, round(size_w)), max(MIN_PATCH_WIDTH, round(size_h))
+            margin = round(reach * size_w)
+            x0, y0 = round(centre_x - size_w / 2) - margin, round(centre_y - size_h / 2) - margin
+            x1, y1 = x0 + width + 2 * margin, y0 + height + 2 * margin
+            if x0 < 0 or y0 < 0 or x1 > grey.shape[1] or y1 > grey.shape[0]:
+                continue
+            patch = cv2.resize(self.patch, (width, height), interpolation=cv2.INTER_AREA).astype(np.uint8)
+            scores = cv2.matchTemplate(grey[y0:y1, x0:x1], patch, cv2.TM_CCOEFF_NORMED)
+            _, score, _, (dx, dy) = cv2.minMaxLoc(scores)
+            if score >= best:
+                best, found = score, (float(x0 + dx), float(y0 + dy), size_w, size_h)
+        return found
 
     def clear(self) -> None:
         """Forget the look (a new target)."""

@@ -390,7 +390,10 @@ class TargetTracker(Track):
             return None
         if self.status != TRACKING:
             return None
-        return self.box_look.find(grey, box, p.box_search_reach, p.box_min_match)
+        found = self.box_look.find(grey, box, p.box_search_reach, p.box_min_match)
+        if found is not None and p.box_look_rate > 0.0:
+            self.box_look.learn(grey, found, p.box_look_rate)
+        return found
 
     def _colours_beside(self, bins: np.ndarray | None, state: np.ndarray) -> bool:
         """Whether the target's colours are in view beside the contour at ``state`` (working

@@ -130,6 +130,9 @@ class FaceParameters:
             box is where the contour places it.
         box_min_match: The least normalised cross-correlation, in [-1, 1], of the box's look
             that moves it.
+        box_look_rate: The share of a matched box's grey levels blended into the look, so that
+            it follows a face that changes between faces found (a cap put on); 0: the look
+            learnt on the faces alone.
     """
 
     proposals: str = 'faces'
@@ -141,6 +144,7 @@ class FaceParameters:
     detector_wait_interval: float = 0.05
     box_search_reach: float = 0.35
     box_min_match: float = 0.6
+    box_look_rate: float = 0.1
 
     @property
     def wants_faces(self) -> bool:
@@ -160,6 +164,7 @@ class FaceParameters:
             detector_wait_interval=(self.detector_wait_interval >= 0.0, '>= 0 (s)'),
             box_search_reach=(0.0 <= self.box_search_reach <= 2.0, 'in [0, 2] (box widths)'),
             box_min_match=(-1.0 <= self.box_min_match <= 1.0, 'in [-1, 1]'),
+            box_look_rate=(0.0 <= self.box_look_rate <= 1.0, 'in [0, 1]'),
         )
 
 

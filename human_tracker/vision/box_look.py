@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from human_tracker.vision.boxes import Box
+from human_tracker.vision.boxes import Box, box_centre
 
 __all__ = ['MIN_PATCH_WIDTH', 'SIZE_STEP', 'BoxLook']
 
@@ -33,6 +33,11 @@ def _sizes_between(first: float, last: float) -> np.ndarray:
     :data:`SIZE_STEP`; ``first`` alone when they are within one step."""
     ratio = abs(np.log(last / first)) / np.log(SIZE_STEP)
     return np.geomspace(first, last, int(np.ceil(ratio)) + 1) if ratio > 1.0 else np.array([first])
+
+
+def _in_frame(grey: np.ndarray, x0: int, y0: int, x1: int, y1: int) -> bool:
+    """Whether the window [x0, x1) x [y0, y1) lies wholly in ``grey``."""
+    return x0 >= 0 and y0 >= 0 and x1 <= grey.shape[1] and y1 <= grey.shape[0]
 
 
 @dataclass
@@ -52,7 +57,7 @@ class BoxLook:
         the patch learnt before."""
         x, y, w, h = box
         x0, y0, x1, y1 = round(x), round(y), round(x + w), round(y + h)
-        if w <= MIN_PATCH_WIDTH or x0 < 0 or y0 < 0 or x1 > grey.shape[1] or y1 > grey.shape[0]:
+        if w <= MIN_PATCH_WIDTH or not _in_frame(grey, x0, y0, x1, y1):
             return
         seen = grey[y0:y1, x0:x1].astype(np.float32)
         if self.patch is None or rate >= 1.0:
@@ -82,8 +87,8 @@ class BoxLook:
         """
         if self.patch is None:
             return None
-        x, y, w, h = box
-        centre_x, centre_y = x + w / 2, y + h / 2
+        _, _, w, h = box
+        centre_x, centre_y = box_centre(box)
         best, found = min_match, None
         for size_w in _sizes_between(w, self.patch.shape[1]):
             size_h = size_w * h / w
@@ -91,7 +96,7 @@ class BoxLook:
             margin = round(reach * size_w)
             x0, y0 = round(centre_x - size_w / 2) - margin, round(centre_y - size_h / 2) - margin
             x1, y1 = x0 + width + 2 * margin, y0 + height + 2 * margin
-            if x0 < 0 or y0 < 0 or x1 > grey.shape[1] or y1 > grey.shape[0]:
+            if not _in_frame(grey, x0, y0, x1, y1):
                 continue
             patch = cv2.resize(self.patch, (width, height), interpolation=cv2.INTER_AREA).astype(np.uint8)
             scores = cv2.matchTemplate(grey[y0:y1, x0:x1], patch, cv2.TM_CCOEFF_NORMED)

@@ -27,10 +27,12 @@ from human_tracker.vision.target_parameters import LossParameters
     [
         (WAITING, Event.START, TRACKING),
         (LOST, Event.START, TRACKING),
-        (WAITING, Event.START_UNCONFIRMED, LOST),
+        (WAITING, Event.START_UNCONFIRMED, WAITING),  # never taken up: never lost
+        (LOST, Event.START_UNCONFIRMED, LOST),
         (TRACKING, Event.START_UNCONFIRMED, LOST),
         (LOST, Event.RESTART, TRACKING),
         (TRACKING, Event.LOSS, LOST),
+        (WAITING, Event.LOSS, WAITING),  # a declined hypothesis's weak frames: still waiting
         (LOST, Event.RECOVERY, TRACKING),
         (WAITING, Event.RECOVERY, WAITING),  # only a lost target recovers
         (TRACKING, Event.RECOVERY, TRACKING),

@@ -71,3 +71,4 @@ def test_falsely_lost_counts_unreported_frames_whose_estimate_is_on_the_target()
     estimated = [on, near, far, None, near]
     assert summarise(predicted, truth, estimated)['falsely_lost'] == 0.25
     assert 'falsely_lost' not in summarise(predicted, truth)  # a tracker with no estimate when it says lost
+    assert summarise(predicted, truth)['box_reported'] == 0.25  # one annotated frame of four has a box

@@ -91,19 +91,22 @@ def wrong_cell(row: dict[str, object], key: str = 'confident_wrong_max') -> str:
 
 
 def honesty_cell(row: dict[str, object]) -> str:
-    """The worst run's confident-wrong and falsely lost shares (``-``: not measured)."""
+    """The worst run's confident-wrong and falsely lost shares and share of annotated frames with
+    a reported box (``-``: not measured)."""
     falsely = wrong_cell(row, 'falsely_lost_max') if 'falsely_lost_max' in row else '-'
-    return f'{wrong_cell(row)} / {falsely}'
+    reported = f'{float(row["box_reported_min"]):.3f}' if 'box_reported_min' in row else '-'
+    return f'{wrong_cell(row)} / {falsely} / {reported}'
 
 
 def real_people_table(rows: list[dict[str, object]]) -> str:
     """Markdown table of the sequences run without a box too: ours (from the first box and
-    without, with the worst run's confident-wrong and falsely lost shares), the paper's tracker
+    without, with the worst run's confident-wrong and falsely lost shares and share of annotated
+    frames with a reported box), the paper's tracker
     and OpenCV's trackers, mean precision at 20 px; for a hand,
     ours following the whole person too (the hand scored; with its mean IDF1 and the worst
     run's share of frames on which the person's head kept one id)."""
     real = by_sequence_and_tracker(rows)
-    honesty = 'confident-wrong / falsely lost, worst run'
+    honesty = 'confident-wrong / falsely lost / box reported, worst run'
     columns = ['from the first box', honesty, 'without a box', honesty]
     columns += ["the paper's tracker, from the box", *MAIN_WHEEL_BASELINES, *CONTRIB_BASELINES]
     columns += ['as a person, from the box', 'as a person, without a box']
@@ -178,7 +181,8 @@ def _row(
     falsely_lost: list[float] | None = None,
 ) -> dict[str, object]:
     """The first run's scores and ms per frame (wall clock and CPU), the precision's mean, min and
-    max over ``runs``, the largest confident-wrong share of any run; with each run's target
+    max over ``runs``, the largest confident-wrong share of any run and the smallest share of
+    annotated frames with a reported box; with each run's target
     ``ids``, the mean IDF1 and the mean and most identity switches
     (:mod:`~human_tracker.evaluation.identity`);
     with each run's box-centre ``covariances``, the normalised estimation error squared over
@@ -217,6 +221,7 @@ def _row(
         'precision_20px_min': round(min(precisions), 3),
         'precision_20px_max': round(max(precisions), 3),
         'confident_wrong_max': max(summary['confident_wrong'] for summary in summaries),
+        'box_reported_min': min(summary['box_reported'] for summary in summaries),
         # Ours only: a tracker without an estimate while not TRACKING cannot be falsely lost.
         **({'falsely_lost_max': max(falsely_lost)} if falsely_lost else {}),
         **consistency,

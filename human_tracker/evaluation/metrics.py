@@ -126,15 +126,17 @@ def _falsely_lost_share(
 def summarise(
     predicted: Sequence[Box | None], truth: Sequence[Box | None], estimated: Sequence[Box | None] | None = None
 ) -> dict[str, float]:
-    """Precision at 20 px, success AUC, mean centre error, confident-wrong share and the annotated
-    frame count; with the filter's ``estimated`` boxes on every frame (None where it has none),
-    the falsely-lost share too."""
+    """Precision at 20 px, success AUC, mean centre error, confident-wrong share, the share of
+    annotated frames with a reported box (``box_reported``: the person is said to be there,
+    rightly or not) and the annotated frame count; with the filter's ``estimated`` boxes on
+    every frame (None where it has none), the falsely-lost share too."""
     errors = centre_errors(predicted, truth)
     finite = errors[np.isfinite(errors)]
     extra = {} if estimated is None else {'falsely_lost': round(_falsely_lost_share(predicted, estimated, truth), 4)}
     return {
         **extra,
         'confident_wrong': round(_confident_wrong_share(errors, truth), 4),
+        'box_reported': round(float(np.mean(np.isfinite(errors))), 4) if errors.size else 0.0,
         'annotated_frames': int(errors.size),
         'precision_20px': precision_at(errors, 20.0),
         'success_auc': success_auc(overlaps(predicted, truth)),

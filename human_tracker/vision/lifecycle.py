@@ -79,11 +79,15 @@ _TO = {
 
 def transition(state: TrackState, event: Event) -> TrackState:
     """The state after ``event``: only a followed target can be marked lost, only a lost one
-    recovers; every other event sets its state whatever the state before."""
+    recovers, and a target never taken up (WAITING) is never LOST: a filter whose hypothesis
+    was declined goes on waiting whatever its evidence. Every other event sets its state
+    whatever the state before."""
     if event is Event.MARK_LOST:
         return LOST if state == TRACKING else state
     if event is Event.RECOVERY:
         return TRACKING if state == LOST else state
+    if _TO[event] == LOST and state == WAITING:
+        return WAITING
     return _TO[event]
 
 

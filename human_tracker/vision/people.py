@@ -16,7 +16,8 @@ over the same frame's evidence; up to ``max_people`` people are followed. On eac
   the forearm below it): no start, hypothesis or face proposal inside one. The occupancy rule
   catches a filter that drifts onto another's region: when the centre of one target lies in
   the central half of another head's box (the whole box of another hand), the one taken up
-  later is marked LOST and looks again elsewhere.
+  later is marked LOST (still WAITING where its slot takes a target up for the first time) and
+  looks again elsewhere.
 - **Turns.** A second hand runs only while the first is followed, the next person's head only
   while the person before has a head, their hands only while their own head is followed: an
   idle slot costs nothing. A person after the first is taken up only by a face found on their
@@ -44,7 +45,6 @@ from human_tracker.vision.boxes import Box, box_centre, centre_within
 from human_tracker.vision.evidence import Evidence
 from human_tracker.vision.face_finder import FaceFinder
 from human_tracker.vision.faces import FaceDetector, face_detector_available
-from human_tracker.vision.lifecycle import LOST
 from human_tracker.vision.outcomes import TargetResult, TrackedTarget, primary_target, targets_line
 from human_tracker.vision.slots import Slot
 from human_tracker.vision.target import TargetParameters, TargetTracker, parameters_for
@@ -201,6 +201,7 @@ class PersonTracker:
             slots' order.
         """
         ran: list[tuple[Slot, TargetResult]] = []
+        waiting = [slot for slot in self.slots if not slot.taken_up]  # never taken up before this frame
         faces: dict[int, Box | None] = {}  # by person
         followed: dict[int, Box] = {}  # where each followed head puts its face
         faced: set[int] = set()  # the people whose followed head a face was found on
@@ -244,7 +245,7 @@ class PersonTracker:
             ran.append((slot, result))
         if self.face_finder is not None:
             self.face_finder.submit()
-        ran = self._keep_apart(sorted(ran, key=lambda run: self.slots.index(run[0])))
+        ran = self._keep_apart(sorted(ran, key=lambda run: self.slots.index(run[0])), waiting)
         return [TrackedTarget(slot.id, slot.kind, slot.person, result, slot.name) for slot, result in ran]
 
     def _identify(self, slot: Slot, result: TargetResult) -> TargetResult:
@@ -340,10 +341,11 @@ class PersonTracker:
         ]
         return all(o.box is not None for o in waits_for)
 
-    def _keep_apart(self, ran: list[tuple[Slot, TargetResult]]) -> list[tuple[Slot, TargetResult]]:
+    def _keep_apart(self, ran: list[tuple[Slot, TargetResult]], waiting: list[Slot]) -> list[tuple[Slot, TargetResult]]:
         """The occupancy rule: of two followed targets of a kind where one's centre lies inside
         the region the other holds (the central ``SAME_REGION`` share of its box; a hand's box
-        with the forearm below it), the one taken up later (the higher id) is marked LOST."""
+        with the forearm below it), the one taken up later (the higher id) is marked LOST, or
+        declined (still WAITING) where its slot was ``waiting``: never taken up before this frame."""
         kept = []
         for slot, result in ran:
             box, share = slot.box, SAME_REGION[slot.kind]
@@ -358,10 +360,14 @@ class PersonTracker:
                 for other, _ in ran
             )
             if taken:
-                slot.tracker.mark_lost()
+                if any(slot is other for other in waiting):
+                    slot.tracker.decline()
+                    slot.taken_up = False
+                else:
+                    slot.tracker.mark_lost()
                 slot.id, slot.box = 0, None
                 slot.retire()
-                result = replace(result, status=LOST)
+                result = replace(result, status=slot.tracker.status)
             kept.append((slot, result))
         return kept
 

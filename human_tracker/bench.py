@@ -572,7 +572,13 @@ def main(argv: list[str] | None = None) -> int:
             {'stage': name, **{res: values[name] for res, values in speed['stages_ms'].items()}}
             for name in speed['stages_ms']['640x480']
         ]
-        report += ['## ms per frame, by stage\n', _table(stage_rows, ['stage', '640x480', '320x240'])]
+        report += [
+            '## ms per frame, by stage\n',
+            'The `*pipeline*` rows time `FramePipeline` (human_tracker/vision/frame_pipeline.py), the frame path '
+            'the `pipeline` node, the tracker node and `track` run, after the image message is converted; the other '
+            'rows break it down by stage.\n',
+            _table(stage_rows, ['stage', '640x480', '320x240']),
+        ]
         tracker_rows = [
             {
                 'tracker': k,

@@ -56,6 +56,21 @@ def _box(text: str) -> tuple[float, float, float, float]:
     return values  # type: ignore[return-value]
 
 
+# The options of ``track`` a parameter file sets as the node's parameters, with their names there.
+_NODE_PARAMETER_OPTIONS = {
+    'target': 'target',
+    'hands': 'hands',
+    'max_people': 'max_people',
+    'cue': 'motion_cue',
+    'skin': 'skin_cue',
+    'colour_blur': 'colour_blur',
+    'merge_distance': 'merge_distance',
+    'template': 'template_file',
+    'particles': 'num_particles',
+    'working_width': 'working_width',
+}
+
+
 def _track(options: argparse.Namespace) -> int:
     from human_tracker.offline import TrackOptions, track_sequence
     from human_tracker.threads import default_threads, use_threads
@@ -64,23 +79,40 @@ def _track(options: argparse.Namespace) -> int:
 
     use_threads(default_threads() if options.threads is None else options.threads)
     out = options.out or Path('out') / 'track' / sequence_name(Path(options.input))
-    settings = TrackOptions(
-        target=options.target,
-        init=options.init,
-        init_kind=options.init_kind,
-        hands=options.hands,
-        max_people=options.max_people,
-        cue=options.cue,
-        skin=options.skin,
-        skin_parameters=SkinParameters(colour_blur=options.colour_blur, merge_distance=options.merge_distance),
-        template_file=options.template or '',
-        filter_parameters=TrackerParameters(num_particles=options.particles, seed=options.seed),
-        working_width=options.working_width,
-        video=not options.no_video,
-        video_every=options.video_every,
-        progress=not options.quiet,
-        fps=options.fps,
-    )
+    shown = {
+        'init': options.init,
+        'init_kind': options.init_kind,
+        'video': not options.no_video,
+        'video_every': options.video_every,
+        'progress': not options.quiet,
+        'fps': options.fps,
+    }
+    if options.params_file or options.set:
+        from human_tracker.ros.configured import configured_pipeline
+
+        given = [name for name in _NODE_PARAMETER_OPTIONS if getattr(options, name) is not None]
+        if given:
+            flags = ', '.join(f'--{n.replace("_", "-")} (--set {_NODE_PARAMETER_OPTIONS[n]}=...)' for n in given)
+            raise ValueError(f'with --params-file or --set, give the node parameters instead: {flags}')
+        seed = [] if options.seed is None else [f'seed={options.seed}']
+        configured = configured_pipeline(options.params_file, [*options.set, *seed])
+        shown['init'] = options.init or configured.init_box
+        settings = TrackOptions(target=configured.target, pipeline=configured.pipeline, **shown)
+    else:
+        settings = TrackOptions(
+            target=options.target,
+            hands=1 if options.hands is None else options.hands,
+            max_people=options.max_people or 1,
+            cue=options.cue or 'background',
+            skin=options.skin,
+            skin_parameters=SkinParameters(
+                colour_blur=options.colour_blur or 0.0, merge_distance=options.merge_distance or 0.0
+            ),
+            template_file=options.template or '',
+            filter_parameters=TrackerParameters(num_particles=options.particles or 500, seed=options.seed or 0),
+            working_width=options.working_width,
+            **shown,
+        )
     summary = track_sequence(options.input, out, settings)
     print(json.dumps(summary, indent=2))
     print(
@@ -262,12 +294,11 @@ def main(argv: list[str] | None = None) -> int:
         'or head)',
     )
     track.add_argument(
-        '--hands', type=int, choices=(0, 1, 2), default=1, help="with --target person: a person's hands (default 1)"
+        '--hands', type=int, choices=(0, 1, 2), help="with --target person: a person's hands (default 1)"
     )
     track.add_argument(
         '--max-people',
         type=int,
-        default=1,
         metavar='N',
         help='with --target person: the most people followed at once, each with its ids (default 1)',
     )
@@ -278,29 +309,22 @@ def main(argv: list[str] | None = None) -> int:
         "the parent's for an img/ folder)",
     )
     track.add_argument(
-        '--cue', choices=('background', 'flow', 'none'), default='background', help='motion cue (default background)'
+        '--cue', choices=('background', 'flow', 'none'), help='motion cue (default background)'
     )
     track.add_argument(
         '--skin',
         action=argparse.BooleanOptionalAction,
         help='segment skin and use it in the likelihood (default: on for --target hand)',
     )
-    track.add_argument(
-        '--colour-blur',
-        type=float,
-        default=0.0,
-        metavar='SIGMA',
-        help=_COLOUR_BLUR_HELP,
-    )
-    track.add_argument('--merge-distance', type=float, default=0.0, metavar='D', help=_MERGE_DISTANCE_HELP)
+    track.add_argument('--colour-blur', type=float, metavar='SIGMA', help=_COLOUR_BLUR_HELP)
+    track.add_argument('--merge-distance', type=float, metavar='D', help=_MERGE_DISTANCE_HELP)
     track.add_argument('--template', help='JSON template file replacing the built-in one')
     track.add_argument(
-        '--particles', type=int, default=500, metavar='P', help="particles of each target's filter (default 500)"
+        '--particles', type=int, metavar='P', help="particles of each target's filter (default 500)"
     )
     track.add_argument(
         '--seed',
         type=int,
-        default=0,
         help='seed of the random generators: the same seed on the same input gives the same poses (default 0)',
     )
     track.add_argument(
@@ -316,6 +340,21 @@ def main(argv: list[str] | None = None) -> int:
         help="frame rate of a folder of frames or a video, stamping its frames (default: the video's, or 30)",
     )
     track.add_argument('--quiet', action='store_true', help='no progress bar')
+    track.add_argument(
+        '--params-file',
+        action='append',
+        default=[],
+        metavar='FILE',
+        help="the nodes' parameter file (config/human_tracker.yaml's form; repeatable): track with the frame "
+        'path the pipeline node builds from it, every key checked as the node checks it',
+    )
+    track.add_argument(
+        '--set',
+        action='append',
+        default=[],
+        metavar='NAME=VALUE',
+        help='a node parameter, after the files (as -p NAME:=VALUE; repeatable)',
+    )
     track.add_argument(
         '--threads',
         type=int,

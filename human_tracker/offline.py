@@ -1,9 +1,9 @@
 """Offline tracking of a sequence, as fast as the machine allows (no ROS graph): the
 ``human_tracker track`` command.
 
-The same cue stages and trackers as the nodes run on every frame, assembled the same way
-(:mod:`~human_tracker.vision.cues`): the motion cue (background subtraction, optical flow or
-none), skin labels (§3.2, colour input only) and the targets' trackers. Without
+The frame path the nodes run (:class:`~human_tracker.vision.frame_pipeline.FramePipeline`),
+on every frame: the motion cue (background subtraction, optical flow or none), skin labels
+(§3.2, colour input only) and the targets' trackers. Without
 an initial box the tracker starts by itself from motion (§2.5); with one, from that box in
 the first frame (the protocol of tracking benchmarks).
 """
@@ -28,10 +28,11 @@ from human_tracker.evaluation.metrics import Box, summarise
 from human_tracker.evaluation.plots import plot_run
 from human_tracker.io.sequences import open_sequence
 from human_tracker.vision.background import BackgroundModel
-from human_tracker.vision.cues import MOTION_CUES, CueStages, build_people
+from human_tracker.vision.cues import MOTION_CUES, Frame
+from human_tracker.vision.frame_pipeline import FramePipeline
 from human_tracker.vision.outcomes import state_words
 from human_tracker.vision.people import TrackedTarget, kinds_of, targets_line
-from human_tracker.vision.skin import SkinParameters, SkinSegmenter, default_skin_model
+from human_tracker.vision.skin import SkinParameters
 from human_tracker.vision.target_parameters import TargetParameters, parameters_for
 from human_tracker.vision.tracker import TrackerParameters, check_box_in_image
 
@@ -110,6 +111,9 @@ class TrackOptions:
         fps: The frame rate, Hz, of a folder of frames or a video, which stamps their frames
             (the tracker's ``detector_wait_interval`` reads the stamps); None: the video's own,
             or 30. A bag's frames keep their own stamps.
+        pipeline: A frame path built elsewhere (the pipeline node's, from its parameter file:
+            :func:`~human_tracker.ros.configured.configured_pipeline`) for ``target``; its own
+            settings then replace ``hands`` to ``working_width``.
     """
 
     target: str | None = None
@@ -128,6 +132,7 @@ class TrackOptions:
     video_every: int = 1
     progress: bool = True
     fps: float | None = None
+    pipeline: FramePipeline | None = None
 
 
 def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -> dict[str, object]:
@@ -152,31 +157,15 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
     if options.fps is not None:
         sequence.fps = options.fps
     target = options.target or sequence.target or 'head'
-    kinds = kinds_of(target, options.hands)
-    if len(kinds) > 1 and (options.template_file or options.target_parameters is not None):
-        raise ValueError('a template file and target parameters are for one target, not a person')
-    parameters = {kinds[0]: options.target_parameters} if options.target_parameters is not None else {}
-    if options.working_width is not None:
-        parameters = {
-            k: replace(parameters.get(k) or parameters_for(k), working_width=options.working_width) for k in kinds
-        }
-    people = build_people(
-        target,
-        options.filter_parameters,
-        parameters,
-        hands=options.hands,
-        max_people=options.max_people,
-        template_file=options.template_file,
-    )
+    pipeline = options.pipeline or _frame_path(target, options)
+    kinds = pipeline.people.kinds
+    people = pipeline.people
     names = [slot.name for slot in people.slots]
     kind_of = {slot.name: slot.kind for slot in people.slots}
     width = people.trackers[0].parameters.working_width
     init_kind = options.init_kind or (sequence.target if sequence.target in kinds else kinds[0])
     if init_kind not in kinds:
         raise ValueError(f'init_kind must be one of {", ".join(kinds)}, got {init_kind!r}')
-    use_skin = people.uses_skin if options.skin is None else options.skin
-    segmenter = SkinSegmenter(default_skin_model(), options.skin_parameters) if use_skin else None
-    stages = CueStages.build(options.cue, segmenter, width)
     grey_frames = 0
     motion_set_aside = 0
     # By target slot (``head``, ``hand``, ``person_2/head``, ...): None or 0 where it did not run.
@@ -215,19 +204,19 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
             start, cpu = time.perf_counter(), time.process_time()
             if frame.index == 0 and options.init is not None:
                 check_box_in_image(options.init, frame.image.shape)
-                people.initialise_from_box(options.init, init_kind)
-            evidence = stages.evidence(frame.image, frame.stamp_ns)
-            if stages.grey:
+                pipeline.start_from_box(options.init, init_kind)
+            result = pipeline.process(Frame(frame.image, frame.stamp_ns))
+            outcomes = result.outcomes
+            if result.grey:
                 # No colour, no skin: empty labels (a hand is started and held by its skin, so
                 # none is followed: on grey frames one settled on blinds).
                 if grey_frames == 0:
                     sequence.warnings.append(GREY_WARNING.format(name=sequence.name, index=frame.index))
                     _LOG.warning(sequence.warnings[-1])
                 grey_frames += 1
-            outcomes = people.step(evidence)
             elapsed += time.perf_counter() - start
             busy += time.process_time() - cpu
-            motion_set_aside += outcomes[0].result.motion_set_aside
+            motion_set_aside += result.motion_set_aside
             ran = {outcome.name: outcome for outcome in outcomes}
             for name in names:
                 outcome = ran.get(name)
@@ -261,13 +250,13 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
     summary: dict[str, object] = {
         'source': str(source),
         'target': target,
-        'cue': options.cue,
-        'skin': use_skin,
+        'cue': pipeline.stages.motion_cue,
+        'skin': pipeline.stages.skin is not None,
         'working_width': width,
         'frames_without_colour': grey_frames,
         'warnings': sequence.warnings,
         'frames_motion_set_aside': motion_set_aside,
-        'background_restarts': stages.motion.restarts if isinstance(stages.motion, BackgroundModel) else 0,
+        'background_restarts': motion.restarts if isinstance(motion := pipeline.stages.motion, BackgroundModel) else 0,
         'init': list(options.init) if options.init is not None else 'motion',
         'frames': len(truth),
         'frames_processed': processed,
@@ -291,6 +280,29 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
     summary['plots'] = [p.name for p in plot_run(out, predicted[scored], truth, sequence.name)]
     (out / 'summary.json').write_text(json.dumps(summary, indent=2) + '\n')
     return summary
+
+
+def _frame_path(target: str, options: TrackOptions) -> FramePipeline:
+    """The frame path of ``target`` with ``options``' cues and parameters."""
+    kinds = kinds_of(target, options.hands)
+    if len(kinds) > 1 and (options.template_file or options.target_parameters is not None):
+        raise ValueError('a template file and target parameters are for one target, not a person')
+    parameters = {kinds[0]: options.target_parameters} if options.target_parameters is not None else {}
+    if options.working_width is not None:
+        parameters = {
+            k: replace(parameters.get(k) or parameters_for(k), working_width=options.working_width) for k in kinds
+        }
+    return FramePipeline.for_target(
+        target,
+        options.filter_parameters,
+        parameters,
+        cue=options.cue,
+        skin=options.skin,
+        skin_parameters=options.skin_parameters,
+        hands=options.hands,
+        max_people=options.max_people,
+        template_file=options.template_file,
+    )
 
 
 def _several_tracks(

@@ -101,7 +101,7 @@ def _working_frames(evidence: Evidence) -> int:
 
 def test_a_working_frame_computed_beforehand_gives_the_same_track() -> None:
     """A node waiting for a frame's masks computes the frame's working image, bins and edges
-    meanwhile (PersonTracker.evidence): with the cues added, they give the track computed without
+    meanwhile (PersonTracker.prepare): with the cues added, they give the track computed without
     them, for a person's head and hands."""
     ahead, after = (PersonTracker(('head', 'hand'), TrackerParameters(seed=2)) for _ in range(2))
     cues, skin = BackgroundModel(), SkinSegmenter(default_skin_model())
@@ -111,7 +111,8 @@ def test_a_working_frame_computed_beforehand_gives_the_same_track() -> None:
                 people.initialise_from_box(frame.ground_truth, 'hand')
         motion = cues.apply(to_working(to_mono8(image), 320))
         labels = skin.segment(to_working(image, 320), 0.5)
-        evidence = ahead.evidence(image)
+        evidence = Evidence(image)
+        ahead.prepare(evidence)
         head_width, hand_width = (slot.tracker.working_width(image.shape[1]) for slot in ahead.slots[:2])
         assert _working_frames(evidence) == 1 and ('reduced', head_width) in evidence._working
         got = ahead.step(evidence.with_cues(motion=motion, skin=labels))

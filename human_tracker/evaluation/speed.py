@@ -9,19 +9,20 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from dataclasses import replace
 
 import cv2
 import numpy as np
 
 from human_tracker.io.images import message_to_bgr8, to_mono8
 from human_tracker.vision.background import BackgroundModel
+from human_tracker.vision.cues import Frame
 from human_tracker.vision.edges import edge_map
+from human_tracker.vision.frame_pipeline import FramePipeline
 from human_tracker.vision.optical_flow import OpticalFlow
-from human_tracker.vision.people import PersonTracker
-from human_tracker.vision.resolution import to_working, working_scale
 from human_tracker.vision.skin import SkinSegmenter, default_skin_model
-from human_tracker.vision.target import TargetParameters, TargetTracker, parameters_for
-from human_tracker.vision.templates import hand, head_and_shoulders
+from human_tracker.vision.target import parameters_for
+from human_tracker.vision.templates import head_and_shoulders
 from human_tracker.vision.tracker import ContourTracker, TrackerParameters
 
 __all__ = ['PARTICLE_COUNTS', 'stage_timings']
@@ -29,6 +30,8 @@ __all__ = ['PARTICLE_COUNTS', 'stage_timings']
 PARTICLE_COUNTS = (250, 500, 1000, 2000)
 # Passes over the frames of each whole pipeline, whose median is reported.
 PIPELINE_PASSES = 5
+# The stamps of the timed frames: a 30 Hz camera.
+FRAME_INTERVAL_NS = 33_333_333
 
 
 class _RawImage:
@@ -69,13 +72,12 @@ def stage_timings(
 
     Stages: ``conversion`` (raw Image message to BGR and grey), ``edges``, ``colour_edges``,
     ``background``, ``flow``, ``skin`` (§3.2 segmentation), ``particle_filter_<P>`` (one
-    predict-weigh-resample step with P particles), ``pipeline`` (conversion + edges +
-    background + flow + the head tracker with 500 particles, motion-weighted, all at the
-    default working width; ``pipeline_full_size``: the same at full size) and
-    ``hand_pipeline`` (conversion + background + skin + the hand tracker: colour edges and
-    the colour term, at the working width) and ``person_pipeline`` (the same cues, a head's
-    tracker from the first box and two hands' starting by themselves, the second while the
-    first is followed, :mod:`~human_tracker.vision.people`), all on the same frames. A
+    predict-weigh-resample step with P particles), and the frame path the nodes and ``track``
+    run (:class:`~human_tracker.vision.frame_pipeline.FramePipeline`, each with its target's
+    default cues and 500 particles, after the message's conversion): ``pipeline`` (the head
+    from the first box; ``pipeline_full_size``: the same at full size), ``hand_pipeline`` (the
+    hand from the first box, with skin) and ``person_pipeline`` (a head from the first box
+    and two hands starting by themselves), all on the same frames. A
     pipeline's figure is a mean over the frames, not a median (the face detector runs on one
     frame in ``detect_every``, and a median would leave it out): the median of
     ``PIPELINE_PASSES`` such means; ``<pipeline>_cpu`` is the CPU time of every thread of the
@@ -104,23 +106,18 @@ def stage_timings(
         tracker.initialise_from_box(boxes[0])
         results[f'particle_filter_{particles}'] = _ms_per_frame(lambda i, t=tracker: t.step(edges[i]), count)
     filter_parameters = TrackerParameters(num_particles=500, min_scale=24.0 * scale)
-    hand_width = parameters_for('hand').working_width
+    full_size = {'head': replace(parameters_for('head'), working_width=0)}
 
-    def hand_process() -> Callable[..., object]:
-        tracker = TargetTracker(hand(), filter_parameters, parameters_for('hand'))
-        tracker.initialise_from_box(boxes[0])
-        return tracker.process
-
-    def person_process() -> Callable[..., object]:
-        person = PersonTracker(('head', 'hand', 'hand'), filter_parameters)
-        person.initialise_from_box(boxes[0], 'head')
-        return person.process
+    def frame_path(target: str, **options: object) -> Callable[[int], object]:
+        pipeline = FramePipeline.for_target(target, filter_parameters, **options)
+        pipeline.start_from_box(boxes[0])
+        return _timed_frames(messages, pipeline)
 
     pipelines: dict[str, Callable[[], Callable[[int], object]]] = {
-        'pipeline': lambda: _pipeline(messages, boxes[0], filter_parameters, TargetParameters().working_width),
-        'pipeline_full_size': lambda: _pipeline(messages, boxes[0], filter_parameters, 0),
-        'hand_pipeline': lambda: _skin_pipeline(messages, hand_process(), segmenter, hand_width),
-        'person_pipeline': lambda: _skin_pipeline(messages, person_process(), segmenter, hand_width),
+        'pipeline': lambda: frame_path('head'),
+        'pipeline_full_size': lambda: frame_path('head', parameters=full_size),
+        'hand_pipeline': lambda: frame_path('hand'),
+        'person_pipeline': lambda: frame_path('person', hands=2),
     }
     # Each pipeline afresh on the frames, the pipelines in turn, PIPELINE_PASSES times: the
     # median pass of each. One pass each moved the person's cost against the head's by a
@@ -134,36 +131,11 @@ def stage_timings(
     return {k: round(v, 3) for k, v in results.items()}
 
 
-def _skin_pipeline(
-    messages: list[_RawImage], process: Callable[..., object], segmenter: SkinSegmenter, working_width: int
-) -> Callable[[int], object]:
-    """One frame of a pipeline with skin (a hand's, a person's): conversion, the background cue
-    and the skin labels at ``working_width``, then ``process(image, motion, skin)``."""
-    cue = BackgroundModel()
+def _timed_frames(messages: list[_RawImage], pipeline: FramePipeline) -> Callable[[int], object]:
+    """One frame as the ``pipeline`` node runs it: the message converted, then the frame path
+    (every cue stage and tracker of ``pipeline``), stamped at 30 Hz."""
 
     def run(i: int) -> object:
-        image = message_to_bgr8(messages[i])
-        working = to_working(image, working_width)
-        skin = segmenter.segment(working, working_scale(image.shape[1], working_width))
-        mask = cue.apply(to_mono8(working))
-        return process(image, mask, skin, camera_motion=cue.camera_motion_in(image.shape[1]))
-
-    return run
-
-
-def _pipeline(
-    messages: list[_RawImage], box: tuple[float, float, float, float], parameters: TrackerParameters, working_width: int
-) -> Callable[[int], object]:
-    """One frame of the head pipeline as the ``pipeline`` node runs it by default (background
-    cue; the tracker's appearance term, face proposals and camera compensation), at ``working_width``."""
-    target = TargetTracker(head_and_shoulders(), parameters, TargetParameters(working_width=working_width))
-    target.initialise_from_box(box)
-    cue = BackgroundModel()
-
-    def run(i: int) -> object:
-        image = message_to_bgr8(messages[i])
-        mask = cue.apply(to_working(to_mono8(image), working_width))
-        # Colour: the appearance term's histograms.
-        return target.process(image, mask, camera_motion=cue.camera_motion_in(image.shape[1]))
+        return pipeline.process(Frame(message_to_bgr8(messages[i]), i * FRAME_INTERVAL_NS))
 
     return run

@@ -18,7 +18,8 @@ from human_tracker.ros.common import RESULT_QOS, declare_working_width
 from human_tracker.ros.image_conversion import array_to_image
 from human_tracker.ros.stage import ImageStage, ParameterSpec, spin_node
 from human_tracker.vision.background import BackgroundModel, BackgroundParameters
-from human_tracker.vision.cues import foreground
+from human_tracker.vision.cues import CueStages
+from human_tracker.vision.evidence import Evidence
 
 __all__ = ['BACKGROUND_PARAMETERS', 'BackgroundNode', 'main']
 
@@ -60,12 +61,18 @@ class BackgroundNode(ImageStage):
     def __init__(self, *, subscribe_image: bool = True, **kwargs: Any) -> None:
         super().__init__('background_node', subscribe_image=subscribe_image, **kwargs)
         parameters = self.bind_parameters(BackgroundParameters(), BACKGROUND_PARAMETERS, self._apply)
-        self.model = BackgroundModel(parameters)
         self.working_width = declare_working_width(self)
+        # Its stage alone; in a pipeline, the pipeline's stages (shared with the tracker's frame path).
+        self.stages = CueStages(motion=BackgroundModel(parameters), motion_width=self.working_width)
         self.foreground_pub = self.create_publisher(Image, 'foreground', RESULT_QOS)
         self.background_pub = self.create_publisher(Image, 'background', RESULT_QOS)
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.get_logger().info('configured: background subtraction')
+
+    @property
+    def model(self) -> BackgroundModel:
+        """The background model of the stages this node publishes."""
+        return self.stages.motion  # type: ignore[return-value]
 
     def warm_up(self) -> None:
         rng = np.random.default_rng(0)
@@ -86,16 +93,18 @@ class BackgroundNode(ImageStage):
         self.get_logger().info(response.message)
         return response
 
-    def handle_frame(self, image: np.ndarray, header: Any) -> np.ndarray:
-        """Foreground mask of one frame, published under ``header``."""
-        mask = foreground(self.model, image, self.working_width)
+    def handle_frame(self, image: np.ndarray, header: Any) -> None:
+        """The foreground mask of one frame, published under ``header``."""
+        self.publish_cue(self.stages.measure(self.frame(image, header)), header)
+
+    def publish_cue(self, evidence: Evidence, header: Any) -> None:
+        """Publish the frame's foreground mask (and the reference frame, while subscribed)."""
         self.counters.processed += 1
-        self.foreground_pub.publish(array_to_image(mask, 'mono8', header))
+        self.foreground_pub.publish(array_to_image(evidence.motion, 'mono8', header))
         if self.background_pub.get_subscription_count() > 0:
             reference = self.model.reference_frame()
             if reference is not None:
                 self.background_pub.publish(array_to_image(reference, 'mono8', header))
-        return mask
 
     def diagnostics_state(self) -> tuple[str, dict[str, Any]]:
         model = 'empty' if self.model.mean is None else 'learning'

@@ -20,7 +20,8 @@ from sensor_msgs.msg import Image
 from human_tracker.ros.common import RESULT_QOS, declare, declare_working_width
 from human_tracker.ros.image_conversion import array_to_image
 from human_tracker.ros.stage import ImageStage, ParameterSpec, spin_node, stamp_ns
-from human_tracker.vision.cues import flow_motion
+from human_tracker.vision.cues import CueStages, Frame
+from human_tracker.vision.evidence import Evidence
 from human_tracker.vision.optical_flow import FlowParameters, OpticalFlow
 
 __all__ = ['FLOW_PARAMETERS', 'OpticalFlowNode', 'main']
@@ -46,8 +47,9 @@ class OpticalFlowNode(ImageStage):
     def __init__(self, *, subscribe_image: bool = True, **kwargs: Any) -> None:
         super().__init__('optical_flow_node', subscribe_image=subscribe_image, **kwargs)
         parameters = self.bind_parameters(FlowParameters(), FLOW_PARAMETERS, self._apply)
-        self.flow = OpticalFlow(parameters)
         self.working_width = declare_working_width(self)
+        # Its stage alone; in a pipeline, the pipeline's stages (shared with the tracker's frame path).
+        self.stages = CueStages(motion=OpticalFlow(parameters), motion_width=self.working_width)
         self.max_rotation_age = declare(
             self,
             'angular_velocity_timeout',
@@ -57,12 +59,16 @@ class OpticalFlowNode(ImageStage):
             high=60.0,
         )
         self.angular_velocity: tuple[int, np.ndarray] | None = None
-        self.previous_stamp: int | None = None
         self.motion_pub = self.create_publisher(Image, 'motion', RESULT_QOS)
         self.flow_pub = self.create_publisher(Image, 'flow', RESULT_QOS)
         self.use_camera_info()
         self.create_subscription(Vector3Stamped, 'angular_velocity', self._on_angular_velocity, RESULT_QOS)
         self.get_logger().info(f'configured: optical flow ({parameters.method})')
+
+    @property
+    def flow(self) -> OpticalFlow:
+        """The optical flow of the stages this node publishes."""
+        return self.stages.motion  # type: ignore[return-value]
 
     def warm_up(self) -> None:
         rng = np.random.default_rng(0)
@@ -71,30 +77,32 @@ class OpticalFlowNode(ImageStage):
             probe.apply(rng.integers(0, 256, (32, 32), dtype=np.uint8))
 
     def _apply(self, parameters: FlowParameters) -> None:
-        self.flow = OpticalFlow(parameters, previous=self.flow.previous)
+        self.stages.motion = OpticalFlow(parameters, previous=self.flow.previous)
 
     def reset_state(self) -> None:
-        self.flow.reset()
-        self.previous_stamp = None
+        self.stages.reset()
 
     def _on_angular_velocity(self, msg: Vector3Stamped) -> None:
         self.angular_velocity = (stamp_ns(msg.header), np.array([msg.vector.x, msg.vector.y, msg.vector.z]))
 
-    def handle_frame(self, image: np.ndarray, header: Any) -> np.ndarray:
-        """Motion mask of one frame, published under ``header``."""
+    def frame(self, image: np.ndarray, header: Any) -> Frame:
+        """The frame with camera_info's K and the camera's angular velocity, while it is recent."""
         stamp = stamp_ns(header)
-        dt = 0.0 if self.previous_stamp is None else (stamp - self.previous_stamp) / 1e9
-        self.previous_stamp = stamp
         omega = None
         if self.angular_velocity is not None and abs(stamp - self.angular_velocity[0]) <= self.max_rotation_age * 1e9:
             omega = self.angular_velocity[1]
-        k = self.intrinsics(image.shape[1], image.shape[0])
-        flow, mask = flow_motion(self.flow, image, self.working_width, k, omega, max(dt, 0.0))
+        return Frame(image, stamp, self.intrinsics(image.shape[1], image.shape[0]), omega)
+
+    def handle_frame(self, image: np.ndarray, header: Any) -> None:
+        """The motion mask of one frame, published under ``header``."""
+        self.publish_cue(self.stages.measure(self.frame(image, header)), header)
+
+    def publish_cue(self, evidence: Evidence, header: Any) -> None:
+        """Publish the frame's motion mask (and the flow, while subscribed)."""
         self.counters.processed += 1
-        self.motion_pub.publish(array_to_image(mask, 'mono8', header))
-        if self.flow_pub.get_subscription_count() > 0:
-            self.flow_pub.publish(array_to_image(flow, '32FC2', header))
-        return mask
+        self.motion_pub.publish(array_to_image(evidence.motion, 'mono8', header))
+        if self.flow_pub.get_subscription_count() > 0 and self.stages.flow is not None:
+            self.flow_pub.publish(array_to_image(self.stages.flow, '32FC2', header))
 
     def diagnostics_state(self) -> tuple[str, dict[str, Any]]:
         return 'OK', {'method': self.flow.parameters.method, 'rotation_compensation': self.angular_velocity is not None}

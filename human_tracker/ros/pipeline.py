@@ -1,10 +1,11 @@
 """``pipeline``: every stage in one process, frames handed over in memory.
 
-A camera subscriber converts each image once and passes the array to the motion stage
-(``motion_cue``: background subtraction, optical flow, or none), to the skin stage
-(``skin_cue``: on for the hand by default) and then, with their masks, to the tracker. The
-stages publish the same topics as the separate nodes, under the same parameters; only the
-transport between them is gone.
+A camera subscriber converts each image once and runs the frame path the offline command runs
+(:class:`~human_tracker.vision.frame_pipeline.FramePipeline`): the cue stages measure the
+frame (``motion_cue``: background subtraction, optical flow, or none; ``skin_cue``: on for
+the hand by default), then the tracker steps on that evidence. The stage nodes publish their
+cue on the same topics as the separate nodes, under the same parameters; only the transport
+between them is gone.
 """
 
 from __future__ import annotations
@@ -22,48 +23,67 @@ from human_tracker.ros.optical_flow_node import OpticalFlowNode
 from human_tracker.ros.skin_node import SkinNode
 from human_tracker.ros.stage import ImageStage, run_nodes
 from human_tracker.ros.tracker_node import TrackerNode
-from human_tracker.vision.cues import camera_shake
+from human_tracker.vision.cues import CueStages
 
 __all__ = ['MOTION_CUES', 'CameraSubscriber', 'build_pipeline', 'main']
 
 MOTION_CUES = {'none': None, 'background': BackgroundNode, 'flow': OpticalFlowNode}
+CueNode = BackgroundNode | OpticalFlowNode
 
 
 class CameraSubscriber(ImageStage):
-    """Subscribes the camera and runs the motion and skin stages, then the tracker, on each frame."""
+    """Subscribes the camera and runs the tracker's frame path on each frame: the cue stages of
+    the motion and skin nodes, whose cues those nodes publish, then the tracker."""
 
     def __init__(
-        self, motion_stage: ImageStage | None, skin_stage: SkinNode | None, tracker: TrackerNode, **kwargs: Any
+        self, motion_stage: CueNode | None, skin_stage: SkinNode | None, tracker: TrackerNode, **kwargs: Any
     ) -> None:
         super().__init__('camera_subscriber', **kwargs)
         self.motion_stage = motion_stage
         self.skin_stage = skin_stage
         self.tracker = tracker
+        self.cue_nodes = [stage for stage in (motion_stage, skin_stage) if stage is not None]
+        # One set of stages for the frame path and the nodes that publish (and reset) them.
+        stages = CueStages(
+            motion=None if motion_stage is None else motion_stage.stages.motion,
+            skin=None if skin_stage is None else skin_stage.stages.skin,
+            motion_width=320 if motion_stage is None else motion_stage.working_width,
+            skin_width=320 if skin_stage is None else skin_stage.working_width,
+        )
+        for node in self.cue_nodes:
+            node.stages = stages
+        if not tracker.describing:
+            tracker.frame_pipeline.stages = stages
 
     def warm_up(self) -> None:
         """Every stage warms up before this subscriber (the pipeline's input) says it is ready."""
-        for stage in (self.motion_stage, self.skin_stage, self.tracker):
-            if stage is not None:
-                stage.warm_up()
+        for stage in (*self.cue_nodes, self.tracker):
+            stage.warm_up()
 
     def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
         # The pipeline's input is managed for the pipeline: its tracker stops with it.
         self.tracker.say_nothing_tracked()
         return super().on_deactivate(state)
 
-    def handle_frame(self, image: np.ndarray, header: Any, **cues: Any) -> object:
-        mask = None if self.motion_stage is None else self.motion_stage.process_frame(image, header)
-        skin = None if self.skin_stage is None else self.skin_stage.process_frame(image, header)
+    def reset_state(self) -> None:
+        """Time went backwards: the cue stages start over (the tracker resets its targets itself)."""
+        self.tracker.frame_pipeline.stages.reset()
+
+    def handle_frame(self, image: np.ndarray, header: Any) -> object:
+        # The flow stage's frame carries camera_info's K and the camera's angular velocity.
+        frame = (self.motion_stage or self).frame(image, header)
+        evidence = self.tracker.frame_pipeline.measure(frame)
+        for node in self.cue_nodes:
+            node.counters.received += 1
+            node.publish_cue(evidence, header)
         self.counters.processed += 1
-        # The background stage's measure of the camera's motion carries the particles (no cost).
-        model = self.motion_stage.model if isinstance(self.motion_stage, BackgroundNode) else None
-        shake = camera_shake(model, image.shape[1])
-        return self.tracker.process_frame(image, header, motion=mask, skin=skin, camera_motion=shake)
+        return self.tracker.process_frame(image, header, evidence=evidence)
 
 
-def build_pipeline() -> list[Node]:
-    """The pipeline's nodes: [selector, camera subscriber, motion and skin stages (if any), tracker]."""
-    selector = Node('pipeline')
+def build_pipeline(**node_options: Any) -> list[Node]:
+    """The pipeline's nodes: [selector, camera subscriber, motion and skin stages (if any),
+    tracker]; ``node_options`` go to every node (a ``context``)."""
+    selector = Node('pipeline', **node_options)
     cue = declare(
         selector,
         'motion_cue',
@@ -75,8 +95,8 @@ def build_pipeline() -> list[Node]:
         selector.destroy_node()
         raise ValueError(f'motion_cue must be one of {", ".join(MOTION_CUES)}, got {cue!r}')
     stage_type = MOTION_CUES[cue]
-    motion_stage = None if stage_type is None else stage_type(subscribe_image=False)
-    tracker = TrackerNode(subscribe_image=False)
+    motion_stage = None if stage_type is None else stage_type(subscribe_image=False, **node_options)
+    tracker = TrackerNode(subscribe_image=False, **node_options)
     use_skin = declare(
         selector,
         'skin_cue',
@@ -84,9 +104,9 @@ def build_pipeline() -> list[Node]:
         'Segment skin in process (§3.2); default: on when the tracker follows a hand (or a person).',
         read_only=True,
     )
-    skin_stage = SkinNode(subscribe_image=False) if use_skin else None
+    skin_stage = SkinNode(subscribe_image=False, **node_options) if use_skin else None
     tracker.check_start(motion=stage_type is not None, skin=use_skin)
-    camera = CameraSubscriber(motion_stage, skin_stage, tracker)
+    camera = CameraSubscriber(motion_stage, skin_stage, tracker, **node_options)
     stages = [stage for stage in (motion_stage, skin_stage) if stage is not None]
     return [selector, camera, *stages, tracker]
 

@@ -21,7 +21,8 @@ from std_srvs.srv import Trigger
 from human_tracker.ros.common import RESULT_QOS, declare, declare_working_width
 from human_tracker.ros.image_conversion import array_to_image
 from human_tracker.ros.stage import ImageStage, ParameterSpec, spin_node
-from human_tracker.vision.cues import skin_labels
+from human_tracker.vision.cues import CueStages
+from human_tracker.vision.evidence import Evidence
 from human_tracker.vision.skin import (
     REGION_METHODS,
     SkinModel,
@@ -96,20 +97,27 @@ class SkinNode(ImageStage):
             high=100.0,
             read_only=True,
         )
-        self.segmenter = SkinSegmenter(model, parameters, rate, drift)
         self.working_width = declare_working_width(self)
+        # Its stage alone; in a pipeline, the pipeline's stages (shared with the tracker's frame path).
+        self.stages = CueStages(skin=SkinSegmenter(model, parameters, rate, drift), skin_width=self.working_width)
         self.grey_frames = 0
         self.last_frame_grey = False
         self.adaptations = 0
         self.contour: np.ndarray | None = None  # the tracker's latest contour, pixels
         self.skin_pub = self.create_publisher(Image, 'skin', RESULT_QOS)
-        if rate > 0:
+        if rate > 0 and subscribe_image:
+            # In a pipeline the frame path hands the contour over itself.
             self.create_subscription(PolygonStamped, 'contour', self._on_contour, RESULT_QOS)
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.get_logger().info(
             f'configured: skin segmentation, {len(model.classes)} classes'
             + (f', adapting at {rate} from contour' if rate > 0 else '')
         )
+
+    @property
+    def segmenter(self) -> SkinSegmenter:
+        """The skin segmenter of the stages this node publishes."""
+        return self.stages.skin  # type: ignore[return-value]
 
     def warm_up(self) -> None:
         # Skin whose pixels alternate with a near colour: one region whose cluster is too spread
@@ -125,7 +133,7 @@ class SkinNode(ImageStage):
         self.segmenter.parameters = parameters
 
     def reset_state(self) -> None:
-        self.segmenter.reset()
+        self.stages.reset()
         self.contour = None
 
     def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
@@ -140,19 +148,21 @@ class SkinNode(ImageStage):
         if points.shape[0] >= 3 and np.isfinite(points).all():
             self.contour = points
 
-    def handle_frame(self, image: np.ndarray, header: Any) -> np.ndarray:
-        """Skin labels of one frame, published under ``header``."""
-        # The latest contour (a frame or two old) marks where the target is. A grey-level
-        # camera has no chromaticity: empty labels are published, so that a tracker waiting
-        # for this frame's skin labels is not held up.
-        skin, self.last_frame_grey, adapted = skin_labels(self.segmenter, image, self.working_width, self.contour)
+    def handle_frame(self, image: np.ndarray, header: Any) -> None:
+        """The skin labels of one frame, published under ``header``; the classes adapt to the
+        latest contour (a frame or two old), which marks where the target is."""
+        self.publish_cue(self.stages.measure(self.frame(image, header), self.contour), header)
+
+    def publish_cue(self, evidence: Evidence, header: Any) -> None:
+        """Publish the frame's skin labels: empty on a grey-level frame (no chromaticity), so that
+        a tracker waiting for them is not held up."""
+        self.last_frame_grey = self.stages.grey
         if self.last_frame_grey and self.grey_frames == 0:
             self.get_logger().warn('grey-level image: no skin can be found without colour')
         self.grey_frames += int(self.last_frame_grey)
-        self.adaptations += int(adapted)
+        self.adaptations += int(self.stages.adapted)
         self.counters.processed += 1
-        self.skin_pub.publish(array_to_image(skin, 'mono8', header))
-        return skin
+        self.skin_pub.publish(array_to_image(evidence.skin, 'mono8', header))
 
     def diagnostics_state(self) -> tuple[str, dict[str, Any]]:
         return 'OK', {'frames_grey': self.grey_frames, 'adaptations': self.adaptations}

@@ -68,6 +68,7 @@ from human_tracker.ros.startup import (
 )
 from human_tracker.threads import default_threads, use_threads
 from human_tracker.vision.camera import default_camera_matrix
+from human_tracker.vision.cues import Frame
 
 if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore
@@ -383,6 +384,10 @@ class ImageStage(LifecycleNode):
         if result is not DEFERRED:
             self.timer_stats.took(time.perf_counter() - start)
         return result
+
+    def frame(self, image: np.ndarray, header: Any) -> Frame:
+        """``image`` as the frame path takes it (:class:`~human_tracker.vision.cues.Frame`): with its stamp."""
+        return Frame(image, stamp_ns(header))
 
     def use_camera_info(self) -> None:
         """Subscribe ``camera_info``; :meth:`intrinsics` then returns its K."""

@@ -35,17 +35,14 @@ class HeldFrame(NamedTuple):
     Attributes:
         stamp: Its stamp, ns.
         arrived: When it arrived (monotonic s).
-        image: The frame.
         header: Its message header.
-        given: Cues handed over with it in process (``camera_motion``, masks of a pipeline).
-        evidence: What was computed of it while it waited (its working frame), or None.
+        evidence: The frame's evidence: its cues measured in process (a pipeline's) and what
+            was computed of it while it waited (its working frame).
     """
 
     stamp: int
     arrived: float
-    image: np.ndarray
     header: Any
-    given: dict[str, Any]
     evidence: Any
 
 

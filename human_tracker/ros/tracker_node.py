@@ -49,9 +49,10 @@ from human_tracker.ros.stage import DEFERRED, ImageStage, spin_node, stamp_ns
 from human_tracker.ros.stamp_matching import FrameGaps, HeldFrame, MaskInputs
 from human_tracker.ros.tracker_outputs import StatusTopic, TrackerOutputs, estimate_values
 from human_tracker.ros.tracker_parameters import FILTER_PARAMETERS, TARGET_PARAMETERS, declare_settings, start_problem
-from human_tracker.vision.cues import build_people, warm_up
+from human_tracker.vision.cues import build_people
 from human_tracker.vision.evidence import Evidence
-from human_tracker.vision.people import TrackedTarget, primary_target, targets_line
+from human_tracker.vision.frame_pipeline import FramePipeline, FrameResult
+from human_tracker.vision.people import TrackedTarget, targets_line
 from human_tracker.vision.resolution import same_frame
 from human_tracker.vision.skin import has_colour
 from human_tracker.vision.target import TargetParameters, TargetResult, parameters_for
@@ -105,16 +106,19 @@ class TrackerNode(ImageStage):
         self.start_problem: str | None = None
         if self.describing:
             return
-        self.people = build_people(
-            settings.target,
-            filter_parameters,
-            target_parameters,
-            hands=settings.hands,
-            max_people=settings.max_people,
-            id_hold_frames=settings.id_hold_frames,
-            template_file=settings.template_file,
-            num_points=settings.num_points,
+        self.frame_pipeline = FramePipeline(
+            build_people(
+                settings.target,
+                filter_parameters,
+                target_parameters,
+                hands=settings.hands,
+                max_people=settings.max_people,
+                id_hold_frames=settings.id_hold_frames,
+                template_file=settings.template_file,
+                num_points=settings.num_points,
+            )
         )
+        self.people = self.frame_pipeline.people
         self.tracker = self.people.first(self.kind)
         self.template = self.tracker.template
         self.primary = self.tracker  # the tracker of this frame's primary target
@@ -150,7 +154,7 @@ class TrackerNode(ImageStage):
 
     def warm_up(self) -> None:
         """Run the compiled kernels once, with this node's settings, so the first real frame is not late."""
-        warm_up(self.people)
+        self.frame_pipeline.warm_up()
 
     def unconnected_inputs(self) -> list[str]:
         """The mask topics no publisher is matched on yet: their first masks would be lost."""
@@ -180,52 +184,34 @@ class TrackerNode(ImageStage):
         self.outputs.last_distance = None
 
     def _track_held(self, frame: HeldFrame, masks: dict[str, np.ndarray | None]) -> None:
-        """Track a frame that waited for its masks."""
-        cues = {**frame.given, **masks}
-        motion, skin, depth = cues.get(self.settings.motion_input), cues.get('skin'), cues.get('depth')
+        """Track a frame that waited for its masks (a topic's None: it never came)."""
+        cues = {'motion': masks[self.settings.motion_input]} if self.settings.motion_input in masks else {}
+        if 'skin' in masks:
+            cues['skin'] = masks['skin']
         start = time.perf_counter()
-        self.guarded(
-            self.track, frame.image, frame.header, motion, skin, depth, frame.evidence, cues.get('camera_motion')
-        )
+        self.guarded(self.track, frame.header, frame.evidence.with_cues(**cues), masks.get('depth'))
         self.timer_stats.took(time.perf_counter() - start)
 
-    def handle_frame(
-        self,
-        image: np.ndarray,
-        header: Any,
-        motion: np.ndarray | None = None,
-        skin: np.ndarray | None = None,
-        camera_motion: np.ndarray | None = None,
-    ) -> object:
-        """Track on one frame: now when no mask is expected (or they are given), else once they
-        arrive. ``camera_motion``: the camera's motion onto this frame, camera pixels, as the
-        in-process background stage measured it (``pipeline``)."""
-        if not self.mask_topics:
-            return self.track(image, header, motion, skin, camera_motion=camera_motion)
-        given = {self.settings.motion_input: motion, 'skin': skin, 'camera_motion': camera_motion}
+    def handle_frame(self, image: np.ndarray, header: Any, evidence: Evidence | None = None) -> object:
+        """Track on one frame: now when no mask is expected, else once they arrive. ``evidence``:
+        the frame's cues as ``pipeline`` measured them in process; None: the frame alone."""
         stamp = stamp_ns(header)
-        evidence = None
+        evidence = evidence or Evidence(image, stamp_ns=stamp)
+        if not self.mask_topics:
+            return self.track(header, evidence)
         if not self.inputs.matcher.held and not self.inputs.matcher.has_masks(stamp):
             # The frame's own work (reduction, colour bins, edges: 1 of the tracker's 4 ms at
             # 640x480) is done while another node makes its masks, not after they arrive; not
             # while an earlier frame waits, whose masks may come meanwhile and would wait.
             with contextlib.suppress(Exception):  # tracking the frame meets the same error and reports it
-                evidence = self.people.evidence(image)
-        self.inputs.hold(HeldFrame(stamp, time.monotonic(), image, header, given, evidence))
+                self.people.prepare(evidence)
+        self.inputs.hold(HeldFrame(stamp, time.monotonic(), header, evidence))
         return DEFERRED
 
-    def track(
-        self,
-        image: np.ndarray,
-        header: Any,
-        motion: np.ndarray | None,
-        skin: np.ndarray | None = None,
-        depth: np.ndarray | None = None,
-        evidence: Evidence | None = None,
-        camera_motion: np.ndarray | None = None,
-    ) -> TargetResult | None:
-        """Run the trackers on one frame and publish what they found under ``header`` (``evidence``:
-        the frame's, its working frame computed beforehand, :meth:`PersonTracker.evidence`)."""
+    def track(self, header: Any, evidence: Evidence, depth: np.ndarray | None = None) -> FrameResult:
+        """Step 2 of the frame path (:meth:`FramePipeline.track`) on the frame's ``evidence``, its
+        masks checked against the frame, and publish what it found under ``header``."""
+        image = evidence.image
         stamp = stamp_ns(header)
         interval, gap = self.gaps.next(stamp, self._setting('max_gap'))
         if gap is not None:
@@ -236,29 +222,28 @@ class TrackerNode(ImageStage):
         if self.uses_skin:
             self._check_colour(image)
         size = image.shape[:2]
-        motion = self._of_frame(motion, size, 'mask', 'mask_size')
-        skin = self._of_frame(skin, size, 'skin labels', 'skin_size')
+        motion = self._of_frame(evidence.motion, size, 'mask', 'mask_size')
+        skin = self._of_frame(evidence.skin, size, 'skin labels', 'skin_size')
         depth = self._of_frame(depth, size, 'depth image', 'depth_size')
         self._start_on_boxes(size)
-        evidence = (evidence or Evidence(image)).with_cues(
-            motion=motion, skin=skin, camera_motion=camera_motion, stamp_ns=stamp
+        found = self.frame_pipeline.track(
+            evidence.with_cues(motion=motion, skin=skin, stamp_ns=stamp), self._setting('primary_id')
         )
-        outcomes = self.people.step(evidence)
-        centre = (image.shape[1] / 2.0, image.shape[0] / 2.0)
-        primary = primary_target(outcomes, self.kind, centre, self._setting('primary_id'))
+        primary = found.primary
         self.primary = self.people.slot(primary.name).tracker
-        result = primary.result
-        self.last_result, self.last_outcomes = result, outcomes
+        self.last_result, self.last_outcomes = primary.result, found.outcomes
         self.status_topic.on_frame(header)
-        if result.motion_set_aside:
+        if found.motion_set_aside:
             self.frames_motion_set_aside += 1
             self.get_logger().warn(
                 'the motion mask covers most of the frame (camera moving, or light changed?): tracking on edges alone',
                 throttle_duration_sec=5.0,
             )
         self.counters.processed += 1
-        self.outputs.publish(image, header, outcomes, primary, interval, depth, motion if motion is not None else skin)
-        return result
+        self.outputs.publish(
+            image, header, found.outcomes, primary, interval, depth, motion if motion is not None else skin
+        )
+        return found
 
     def _start_on_boxes(self, size: tuple[int, ...]) -> None:
         """Start the primary target on a box asked for on ``init_roi``, or on ``init_box`` while

@@ -14,7 +14,7 @@ the targets' trackers from their parameters.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import cv2
@@ -35,6 +35,7 @@ from human_tracker.vision.tracker import TrackerParameters
 __all__ = [
     'MOTION_CUES',
     'CueStages',
+    'Frame',
     'SkinLabels',
     'build_people',
     'camera_shake',
@@ -110,43 +111,97 @@ def camera_shake(motion: BackgroundModel | OpticalFlow | None, frame_width: int)
     return motion.camera_motion_in(frame_width) if isinstance(motion, BackgroundModel) else None
 
 
+class Frame(NamedTuple):
+    """One camera frame as it reaches the tracker, with what a robot knows beside it.
+
+    Attributes:
+        image: ``(H, W, 3) uint8`` BGR or ``(H, W) uint8`` grey image.
+        stamp_ns: Its time, nanoseconds (None: unknown; the flow cue then has no ``dt``).
+        camera_matrix: K (camera pixels) from camera_info; None: unknown.
+        angular_velocity: The camera's angular velocity (rad/s, optical frame) at this frame,
+            None when the camera is fixed or it is unknown; with K it compensates the flow a
+            rotation induces (eqs. 3-4 on a turning head of a robot).
+    """
+
+    image: np.ndarray
+    stamp_ns: int | None = None
+    camera_matrix: np.ndarray | None = None
+    angular_velocity: np.ndarray | None = None
+
+
 @dataclass
 class CueStages:
-    """The cue stages run in one process on each frame (the offline command).
+    """The cue stages of one frame path: what turns a camera frame into its evidence.
+
+    Every layout measures its cues here: the offline command and ``pipeline`` with every stage
+    of :class:`~human_tracker.vision.frame_pipeline.FramePipeline`, each cue node with its own
+    stage alone.
 
     Attributes:
         motion: The motion stage (``MOTION_CUES``), None for none.
         skin: The skin stage, None without skin.
-        width: The working width the cues are computed at.
+        motion_width: The working width the motion mask is computed at.
+        skin_width: The working width the skin labels are computed at.
         grey: The last frame had no colour (no skin could be found in it).
+        adapted: The skin classes adapted to the last frame's contour.
+        flow: The last frame's optical flow (``(H, W, 2) float32``, working pixels per
+            frame), None without the flow cue.
     """
 
-    motion: BackgroundModel | OpticalFlow | None
-    skin: SkinSegmenter | None
-    width: int
-    grey: bool = False
+    motion: BackgroundModel | OpticalFlow | None = None
+    skin: SkinSegmenter | None = None
+    motion_width: int = 320
+    skin_width: int = 320
+    grey: bool = field(default=False, init=False)
+    adapted: bool = field(default=False, init=False)
+    flow: np.ndarray | None = field(default=None, init=False, repr=False)
+    _last_stamp_ns: int | None = field(default=None, init=False, repr=False)
 
     @classmethod
     def build(cls, cue: str, skin: SkinSegmenter | None, width: int) -> CueStages:
-        """Stages with the motion ``cue`` (default parameters) and the ``skin`` segmenter."""
+        """Stages with the motion ``cue`` (default parameters) and the ``skin`` segmenter, both at ``width``."""
         if cue not in MOTION_CUES:
             raise ValueError(f'cue must be one of {", ".join(MOTION_CUES)}, got {cue!r}')
         motion = BackgroundModel() if cue == 'background' else OpticalFlow() if cue == 'flow' else None
-        return cls(motion, skin, width)
+        return cls(motion, skin, width, width)
 
-    def evidence(self, image: np.ndarray, stamp_ns: int | None = None, contour: np.ndarray | None = None) -> Evidence:
-        """The frame's evidence: ``image`` with its motion mask, skin labels and the camera's
-        shake (``contour``: the target's, the skin classes adapt to it)."""
+    @property
+    def motion_cue(self) -> str:
+        """The motion stage's name in ``MOTION_CUES``."""
+        return 'background' if isinstance(self.motion, BackgroundModel) else 'flow' if self.motion else 'none'
+
+    @property
+    def adapts_skin(self) -> bool:
+        """Whether the skin stage adapts its classes to the target's contour."""
+        return self.skin is not None and self.skin.adaptation_rate > 0
+
+    def measure(self, frame: Frame, contour: np.ndarray | None = None) -> Evidence:
+        """The frame's evidence: its motion mask, skin labels and the camera's shake (``contour``:
+        the target's, ``(N, 2)`` camera pixels, a frame old; the skin classes adapt to it)."""
+        image = frame.image
         motion = None
         if isinstance(self.motion, BackgroundModel):
-            motion = foreground(self.motion, image, self.width)
+            motion = foreground(self.motion, image, self.motion_width)
         elif isinstance(self.motion, OpticalFlow):
-            motion = flow_motion(self.motion, image, self.width)[1]
+            last, self._last_stamp_ns = self._last_stamp_ns, frame.stamp_ns
+            dt = 0.0 if last is None or frame.stamp_ns is None else max(frame.stamp_ns - last, 0) / 1e9
+            self.flow, motion = flow_motion(
+                self.motion, image, self.motion_width, frame.camera_matrix, frame.angular_velocity, dt
+            )
         skin = None
         if self.skin is not None:
-            skin, self.grey, _ = skin_labels(self.skin, image, self.width, contour)
+            skin, self.grey, self.adapted = skin_labels(self.skin, image, self.skin_width, contour)
         shake = camera_shake(self.motion, image.shape[1])
-        return Evidence(image, motion, skin, shake, stamp_ns)
+        return Evidence(image, motion, skin, shake, frame.stamp_ns)
+
+    def reset(self) -> None:
+        """Forget what the stages learnt: the background, the previous frame, the skin's adaptation."""
+        if self.motion is not None:
+            self.motion.reset()
+        if self.skin is not None:
+            self.skin.reset()
+        self._last_stamp_ns = None
+        self.flow = None
 
 
 def build_people(

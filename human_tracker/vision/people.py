@@ -168,13 +168,11 @@ class PersonTracker:
         w, h), camera pixels; the others start by themselves."""
         self.first(kind or self.kinds[0]).initialise_from_box(box)
 
-    def evidence(self, image: np.ndarray) -> Evidence:
-        """The evidence of ``image`` with the first target's working frame (its reduced image,
-        colour bins and edges) computed: a node waiting for the frame's cues computes it
-        meanwhile, then adds them (:meth:`~human_tracker.vision.evidence.Evidence.with_cues`)."""
-        evidence = Evidence(image)
-        evidence.working(self.slots[0].tracker.frame_settings(image.shape[1]))
-        return evidence
+    def prepare(self, evidence: Evidence) -> None:
+        """Compute the first target's working frame of ``evidence`` (its reduced image, colour
+        bins and edges): a node waiting for the frame's cues computes it meanwhile, then adds
+        them (:meth:`~human_tracker.vision.evidence.Evidence.with_cues`)."""
+        evidence.working(self.slots[0].tracker.frame_settings(evidence.image.shape[1]))
 
     def reset(self) -> None:
         """Forget every target; the ids already given stay retired."""

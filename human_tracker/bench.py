@@ -71,7 +71,7 @@ from human_tracker.ros.common import shutdown
 from human_tracker.ros.image_conversion import array_to_image, message_to_bgr8
 from human_tracker.ros.processes import NodeProcess, use_ros_environment
 from human_tracker.threads import default_threads, use_threads
-from human_tracker.vision.tracker import TrackerParameters
+from human_tracker.vision.filter.contour_filter import TrackerParameters
 
 __all__ = ['measure_latency', 'main']
 
@@ -465,7 +465,7 @@ def _thread_policy(sequence: Path, init: str | None, out: Path, runs: int = 3) -
 
 def _skin(real_data: Path) -> list[dict[str, object]]:
     from human_tracker.evaluation.skin import labelled_photo_scores, labelled_video_scores, scene_scores
-    from human_tracker.vision.skin import REGION_METHODS, SkinParameters
+    from human_tracker.vision.cues.skin import REGION_METHODS, SkinParameters
 
     labels = Path('test/data/vtest_skin_labels.json')
     hgr = real_data.parent / 'skin' / 'hgr'

@@ -74,8 +74,8 @@ _NODE_PARAMETER_OPTIONS = {
 def _track(options: argparse.Namespace) -> int:
     from human_tracker.offline import TrackOptions, track_sequence
     from human_tracker.threads import default_threads, use_threads
-    from human_tracker.vision.skin import SkinParameters
-    from human_tracker.vision.tracker import TrackerParameters
+    from human_tracker.vision.cues.skin import SkinParameters
+    from human_tracker.vision.filter.contour_filter import TrackerParameters
 
     use_threads(default_threads() if options.threads is None else options.threads)
     out = options.out or Path('out') / 'track' / sequence_name(Path(options.input))
@@ -193,7 +193,7 @@ def _import(options: argparse.Namespace) -> int:
 
 def _train_skin(options: argparse.Namespace) -> int:
     from human_tracker.io.skin_samples import read_skin_samples
-    from human_tracker.vision.skin import train_skin_model
+    from human_tracker.vision.cues.skin import train_skin_model
 
     colours, is_skin = read_skin_samples(options.samples)
     model = train_skin_model(
@@ -212,8 +212,8 @@ def _skin(options: argparse.Namespace) -> int:
     import numpy as np
 
     from human_tracker.io.frames import open_frames
-    from human_tracker.vision.resolution import to_working, working_scale
-    from human_tracker.vision.skin import SkinModel, SkinParameters, SkinSegmenter, default_skin_model, has_colour
+    from human_tracker.vision.cues.resolution import to_working, working_scale
+    from human_tracker.vision.cues.skin import SkinModel, SkinParameters, SkinSegmenter, default_skin_model, has_colour
 
     source = open_frames(options.input)
     model = SkinModel.load(options.model) if options.model else default_skin_model()

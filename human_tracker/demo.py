@@ -31,8 +31,8 @@ from human_tracker.ros.collector import PoseCollector
 from human_tracker.ros.common import shutdown
 from human_tracker.ros.image_conversion import message_to_bgr8
 from human_tracker.ros.processes import NodeProcess, use_ros_environment
-from human_tracker.vision.templates import fit_template, head_and_shoulders
-from human_tracker.vision.tracker import box_from_state
+from human_tracker.vision.filter.contour_filter import box_from_state
+from human_tracker.vision.filter.templates import fit_template, head_and_shoulders
 
 __all__ = ['run_demo', 'demo_problems', 'node_arguments', 'main']
 

@@ -27,14 +27,14 @@ from human_tracker.evaluation.identity import identity_scores, one_track
 from human_tracker.evaluation.metrics import Box, summarise
 from human_tracker.evaluation.plots import plot_run
 from human_tracker.io.sequences import open_sequence
-from human_tracker.vision.background import BackgroundModel
-from human_tracker.vision.cues import MOTION_CUES, Frame
+from human_tracker.vision.cues.background import BackgroundModel
+from human_tracker.vision.cues.skin import SkinParameters
+from human_tracker.vision.cues.stages import MOTION_CUES, Frame
+from human_tracker.vision.filter.contour_filter import TrackerParameters, check_box_in_image
 from human_tracker.vision.frame_pipeline import FramePipeline
-from human_tracker.vision.outcomes import state_words
-from human_tracker.vision.people import TrackedTarget, kinds_of, targets_line
-from human_tracker.vision.skin import SkinParameters
-from human_tracker.vision.target_parameters import TargetParameters, parameters_for
-from human_tracker.vision.tracker import TrackerParameters, check_box_in_image
+from human_tracker.vision.people.persons import TrackedTarget, kinds_of, targets_line
+from human_tracker.vision.track.outcomes import state_words
+from human_tracker.vision.track.parameters import TargetParameters, parameters_for
 
 __all__ = [
     'CUES',
@@ -89,7 +89,7 @@ class TrackOptions:
 
     Attributes:
         target: ``head``, ``hand`` or ``person`` (a head and hands, each with its id,
-            :mod:`~human_tracker.vision.people`); None: what the bag's ground truth
+            :mod:`~human_tracker.vision.people.persons`); None: what the bag's ground truth
             outlines, else ``head``.
         hands: A person's hands followed (0 to 2).
         max_people: The most people followed at once (a person).

@@ -8,8 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
-from human_tracker.vision.anchoring import FRESH_FACE_FRAMES, UNCONFIRMED_FRAMES, same_face
-from human_tracker.vision.appearance import (
+from human_tracker.vision.cues.appearance import (
     HUE_BINS,
     NUM_BINS,
     SATURATION_BINS,
@@ -18,18 +17,19 @@ from human_tracker.vision.appearance import (
     colour_bins,
     region_histograms,
 )
-from human_tracker.vision.boxes import BoxRelation
-from human_tracker.vision.faces import FACE_ON_HEAD, Detection, FaceDetector, _overlap
-from human_tracker.vision.lifecycle import LOST, TRACKING
-from human_tracker.vision.proposals import (
+from human_tracker.vision.faces.anchoring import FRESH_FACE_FRAMES, UNCONFIRMED_FRAMES, same_face
+from human_tracker.vision.faces.detector import FACE_ON_HEAD, Detection, FaceDetector, _overlap
+from human_tracker.vision.filter.contour_filter import TrackEstimate
+from human_tracker.vision.filter.proposals import (
     detection_log_likelihood,
     draw_with_proposals,
     log_prior_density,
     log_proposal_density,
 )
-from human_tracker.vision.target import TargetParameters, TargetTracker
-from human_tracker.vision.templates import head_and_shoulders
-from human_tracker.vision.tracker import TrackEstimate
+from human_tracker.vision.filter.templates import head_and_shoulders
+from human_tracker.vision.geometry.boxes import BoxRelation
+from human_tracker.vision.track.lifecycle import LOST, TRACKING
+from human_tracker.vision.track.target import TargetParameters, TargetTracker
 
 REAL = Path(__file__).resolve().parents[2] / 'shared' / 'data' / 'real'
 UNIT = BoxRelation((0.0, 0.0), (1.0, 1.0))  # the region is the box of side s centred on (x, y)

@@ -9,7 +9,7 @@ from conftest import BAGS, REAL_DATA, REPO
 
 from human_tracker.io.bags import read_frames
 from human_tracker.ros.image_conversion import message_to_bgr8, to_mono8
-from human_tracker.vision.background import BackgroundModel, BackgroundParameters, background_decision
+from human_tracker.vision.cues.background import BackgroundModel, BackgroundParameters, background_decision
 
 NO_MORPHOLOGY = {'opening_radius': 0, 'closing_radius': 0}
 

@@ -1,4 +1,4 @@
-"""A head's reported box found again by its grey-level look (:mod:`human_tracker.vision.box_look`)."""
+"""A head's reported box found again by its grey-level look (:mod:`human_tracker.vision.faces.box_look`)."""
 
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ import cv2
 import numpy as np
 import pytest
 
-from human_tracker.vision.box_look import BoxLook
-from human_tracker.vision.target_parameters import TargetParameters
+from human_tracker.vision.faces.box_look import BoxLook
+from human_tracker.vision.track.parameters import TargetParameters
 
 BOX = (60.0, 40.0, 30.0, 36.0)
 

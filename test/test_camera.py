@@ -6,8 +6,13 @@ import cv2
 import numpy as np
 import pytest
 
-from human_tracker.vision.camera import default_camera_matrix, metric_positions, position_covariance, undistort_pixels
-from human_tracker.vision.templates import head_and_shoulders
+from human_tracker.vision.filter.templates import head_and_shoulders
+from human_tracker.vision.geometry.camera import (
+    default_camera_matrix,
+    metric_positions,
+    position_covariance,
+    undistort_pixels,
+)
 
 
 def test_metric_position_hand_computed() -> None:

@@ -6,11 +6,12 @@ import cv2
 import numpy as np
 import pytest
 
-from human_tracker.vision.background import BackgroundModel, BackgroundParameters
-from human_tracker.vision.camera_motion import CameraMotion, estimate_camera_motion, move_states, scale_transform
-from human_tracker.vision.target import TargetParameters, TargetTracker
-from human_tracker.vision.templates import head_and_shoulders
-from human_tracker.vision.tracker import ContourTracker, TrackerParameters
+from human_tracker.vision.cues.background import BackgroundModel, BackgroundParameters
+from human_tracker.vision.cues.camera_motion import CameraMotion, estimate_camera_motion, scale_transform
+from human_tracker.vision.filter.contour_filter import ContourTracker, TrackerParameters
+from human_tracker.vision.filter.dynamics import move_states
+from human_tracker.vision.filter.templates import head_and_shoulders
+from human_tracker.vision.track.target import TargetParameters, TargetTracker
 
 
 def _scene(seed: int = 0, shape: tuple[int, int] = (240, 320)) -> np.ndarray:

@@ -49,7 +49,7 @@ def test_a_head_tracker_without_its_face_detector_says_so(monkeypatch) -> None:
     warnings /diagnostics and status carry, instead of quietly running without."""
     import rclpy
 
-    import human_tracker.vision.face_schedule as face_schedule
+    import human_tracker.vision.faces.schedule as face_schedule
 
     monkeypatch.setattr(face_schedule, 'face_detector_available', lambda: False)
     from human_tracker.ros.tracker_node import TrackerNode

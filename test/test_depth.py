@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from human_tracker.vision.depth import MIN_READINGS, depth_image_to_metres, region_depth
+from human_tracker.vision.geometry.depth import MIN_READINGS, depth_image_to_metres, region_depth
 
 
 def test_millimetres_and_metres_with_their_holes() -> None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from human_tracker.vision.dynamics import ar2_matrix, predict
+from human_tracker.vision.filter.dynamics import ar2_matrix, predict
 
 
 def test_ar2_matrix_hand_computed() -> None:

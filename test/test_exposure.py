@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from human_tracker.vision.exposure import MAX_EXPOSURE_GAIN, normalise_exposure
+from human_tracker.vision.cues.exposure import MAX_EXPOSURE_GAIN, normalise_exposure
 
 
 def test_a_dark_frame_is_brightened_until_its_brightest_reach_white() -> None:

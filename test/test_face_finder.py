@@ -1,4 +1,4 @@
-"""One face detector for every target of a frame (vision/face_finder.py)."""
+"""One face detector for every target of a frame (vision/faces/finder.py)."""
 
 from __future__ import annotations
 
@@ -6,16 +6,16 @@ import numpy as np
 import pytest
 from conftest import DLIB_MISSING
 
-from human_tracker.vision.face_finder import (
+from human_tracker.vision.faces.detector import Detection, near_region
+from human_tracker.vision.faces.finder import (
     FINE_WHOLE_FRAME_ZOOM,
     WHOLE_FRAME_ZOOM,
     FaceFinder,
     Search,
     plan_runs,
 )
-from human_tracker.vision.faces import Detection, near_region
-from human_tracker.vision.people import PersonTracker
-from human_tracker.vision.target_parameters import FaceParameters
+from human_tracker.vision.faces.parameters import FaceParameters
+from human_tracker.vision.people.persons import PersonTracker
 
 FRAME = (0, 0, 320, 240)
 

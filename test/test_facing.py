@@ -13,10 +13,9 @@ from conftest import REAL_DATA
 
 from human_tracker.evaluation.facing import LABELS, facing_scores, read_facing, read_labels
 from human_tracker.offline import TrackOptions, track_sequence
-from human_tracker.vision.appearance import colour_bins
-from human_tracker.vision.boxes import BoxRelation
-from human_tracker.vision.faces import FACE_ON_HEAD, Detection, FaceDetector, face_detector_available
-from human_tracker.vision.facing import (
+from human_tracker.vision.cues.appearance import colour_bins
+from human_tracker.vision.faces.detector import FACE_ON_HEAD, Detection, FaceDetector, face_detector_available
+from human_tracker.vision.faces.facing import (
     SMALLEST_SCALE_MARGIN,
     SMALLEST_VISIBLE_FACE,
     VOTING_RUNS,
@@ -27,7 +26,8 @@ from human_tracker.vision.facing import (
     facing_after_run,
     size_known,
 )
-from human_tracker.vision.filter_parameters import TrackerParameters
+from human_tracker.vision.filter.parameters import TrackerParameters
+from human_tracker.vision.geometry.boxes import BoxRelation
 
 TOWARD, SIDE, AWAY, UNKNOWN = Facing.TOWARD, Facing.SIDE, Facing.AWAY, Facing.UNKNOWN
 

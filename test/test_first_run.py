@@ -32,7 +32,7 @@ from human_tracker.ros.processes import NodeProcess
 from human_tracker.ros.tracker_node import TrackerNode
 from human_tracker.ros.video_publisher import VideoPublisher
 from human_tracker.threads import ENVIRONMENT_VARIABLE, default_threads, use_threads
-from human_tracker.vision.tracker import TrackerParameters
+from human_tracker.vision.filter.contour_filter import TrackerParameters
 
 CLI = [sys.executable, '-m', 'human_tracker.cli']
 CONFIG = REPO / 'config' / 'human_tracker.yaml'

@@ -12,16 +12,16 @@ from conftest import REPO
 from human_tracker.evaluation.metrics import centre_errors
 from human_tracker.offline import TrackOptions, track_sequence
 from human_tracker.scenes.generator import SCENES, render_scene
-from human_tracker.vision.anchoring import face_and_neck
-from human_tracker.vision.background import BackgroundModel
-from human_tracker.vision.boxes import centre_within
-from human_tracker.vision.face_finder import FaceFinder
-from human_tracker.vision.faces import Detection
-from human_tracker.vision.skin import SkinSegmenter, default_skin_model
-from human_tracker.vision.starts import _moves_within, initial_region
-from human_tracker.vision.target import TargetTracker, parameters_for
-from human_tracker.vision.templates import open_hand
-from human_tracker.vision.tracker import TrackerParameters
+from human_tracker.vision.cues.background import BackgroundModel
+from human_tracker.vision.cues.skin import SkinSegmenter, default_skin_model
+from human_tracker.vision.faces.anchoring import face_and_neck
+from human_tracker.vision.faces.detector import Detection
+from human_tracker.vision.faces.finder import FaceFinder
+from human_tracker.vision.filter.contour_filter import TrackerParameters
+from human_tracker.vision.filter.templates import open_hand
+from human_tracker.vision.geometry.boxes import centre_within
+from human_tracker.vision.track.starts import _moves_within, initial_region
+from human_tracker.vision.track.target import TargetTracker, parameters_for
 
 HAND = parameters_for('hand')
 VARIANTS = {

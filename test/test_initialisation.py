@@ -6,7 +6,8 @@ import cv2
 import numpy as np
 import pytest
 
-from human_tracker.vision.initialisation import (
+from human_tracker.vision.filter.templates import head_and_shoulders
+from human_tracker.vision.track.initialisation import (
     first_local_maximum,
     largest_blob,
     moments_state,
@@ -14,7 +15,6 @@ from human_tracker.vision.initialisation import (
     state_from_scan,
     upper_end_state,
 )
-from human_tracker.vision.templates import head_and_shoulders
 
 TEMPLATE = head_and_shoulders()  # head box (-0.5, -0.63, 1, 1.25): one unit wide
 

@@ -7,7 +7,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from human_tracker.vision.lifecycle import (
+from human_tracker.vision.track.lifecycle import (
     FIT_MEMORY,
     LOST,
     TRACKING,
@@ -19,7 +19,7 @@ from human_tracker.vision.lifecycle import (
     transition,
     weak_frame,
 )
-from human_tracker.vision.target_parameters import LossParameters
+from human_tracker.vision.track.parameters import LossParameters
 
 
 @pytest.mark.parametrize(

@@ -6,8 +6,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from human_tracker.vision.evidence import Evidence
-from human_tracker.vision.likelihood import (
+from human_tracker.vision.cues.evidence import Evidence
+from human_tracker.vision.filter.contour_filter import ContourTracker, TrackerParameters
+from human_tracker.vision.filter.likelihood import (
     TERMS,
     Observation,
     TermValue,
@@ -16,10 +17,9 @@ from human_tracker.vision.likelihood import (
     contour_term,
     weigh,
 )
-from human_tracker.vision.measurement import log_likelihood
-from human_tracker.vision.target import TargetParameters, TargetTracker
-from human_tracker.vision.templates import hand, head_and_shoulders
-from human_tracker.vision.tracker import ContourTracker, TrackerParameters
+from human_tracker.vision.filter.measurement import log_likelihood
+from human_tracker.vision.filter.templates import hand, head_and_shoulders
+from human_tracker.vision.track.target import TargetParameters, TargetTracker
 
 
 def _scene(seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from human_tracker.vision.edges import _strongest_channel, edge_map
-from human_tracker.vision.measurement import (
+from human_tracker.vision.cues.edges import _strongest_channel, edge_map
+from human_tracker.vision.filter.measurement import (
     _pixel,
     colour_costs,
     contour_costs,

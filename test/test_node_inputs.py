@@ -22,7 +22,7 @@ from human_tracker.ros.background_node import BackgroundNode
 from human_tracker.ros.common import PublisherSequence
 from human_tracker.ros.image_conversion import ENCODINGS, array_to_compressed, array_to_image, message_to_bgr8
 from human_tracker.ros.tracker_node import TrackerNode
-from human_tracker.vision.skin import SkinSegmenter, default_skin_model
+from human_tracker.vision.cues.skin import SkinSegmenter, default_skin_model
 
 RELIABLE = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
 IMAGE_ENCODINGS = sorted(e for e in ENCODINGS if e != '32FC2')  # 32FC2 is flow, not a picture

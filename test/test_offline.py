@@ -21,9 +21,9 @@ from human_tracker.evaluation.metrics import normalised_errors, summarise
 from human_tracker.io.bags import read_frames
 from human_tracker.io.sequences import open_sequence, read_groundtruth, write_groundtruth
 from human_tracker.offline import POSE_COLUMNS, TrackOptions, read_covariances, read_poses, track_sequence
-from human_tracker.vision.skin import SkinParameters
-from human_tracker.vision.target import parameters_for
-from human_tracker.vision.tracker import TrackerParameters
+from human_tracker.vision.cues.skin import SkinParameters
+from human_tracker.vision.filter.contour_filter import TrackerParameters
+from human_tracker.vision.track.target import parameters_for
 
 
 def test_track_a_bag_writes_every_output(tmp_path, head_bag) -> None:

@@ -17,7 +17,7 @@ from conftest import BAGS, HEAD_BAG
 from human_tracker.io.bags import read_frames
 from human_tracker.io.sequences import open_sequence, sequence_name
 from human_tracker.offline import TrackOptions, track_sequence
-from human_tracker.vision.tracker import check_box_in_image
+from human_tracker.vision.filter.contour_filter import check_box_in_image
 
 CLI = [sys.executable, '-m', 'human_tracker.cli']
 

@@ -18,7 +18,7 @@ from human_tracker.demo import node_arguments
 from human_tracker.io.bags import COMPRESSED_CAMERA_TOPIC, read_frames, write_bag
 from human_tracker.io.sequences import open_sequence
 from human_tracker.ros.processes import NodeProcess
-from human_tracker.vision.templates import fit_template, make_template
+from human_tracker.vision.filter.templates import fit_template, make_template
 
 CONFIG = REPO / 'config' / 'human_tracker.yaml'
 HAND_CONFIG = REPO / 'config' / 'hand_tracker.yaml'

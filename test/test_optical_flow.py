@@ -6,8 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from human_tracker.vision.camera import default_camera_matrix
-from human_tracker.vision.optical_flow import (
+from human_tracker.vision.cues.optical_flow import (
     FLOW_METHODS,
     FlowParameters,
     OpticalFlow,
@@ -15,6 +14,7 @@ from human_tracker.vision.optical_flow import (
     motion_mask,
     rotation_flow,
 )
+from human_tracker.vision.geometry.camera import default_camera_matrix
 
 K = np.array([[500.0, 0.0, 160.0], [0.0, 500.0, 120.0], [0.0, 0.0, 1.0]])
 

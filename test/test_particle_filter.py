@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from human_tracker.vision.particle_filter import (
+from human_tracker.vision.filter.particle_filter import (
     effective_sample_size,
     gaussian_cloud,
     kld_resample,

@@ -1,4 +1,4 @@
-"""A person's head and hand followed together, each under its id (vision/people.py)."""
+"""A person's head and hand followed together, each under its id (vision/people/persons.py)."""
 
 from __future__ import annotations
 
@@ -17,18 +17,18 @@ from human_tracker.io.images import to_mono8
 from human_tracker.offline import POSE_COLUMNS, TrackOptions, read_poses, track_sequence
 from human_tracker.ros.image_conversion import message_to_bgr8
 from human_tracker.scenes.generator import PEOPLE_TARGETS, SCENES, render_scene
-from human_tracker.vision.anchoring import FRESH_FACE_FRAMES
-from human_tracker.vision.background import BackgroundModel
-from human_tracker.vision.boxes import box_centre, centre_within
-from human_tracker.vision.evidence import Evidence, WorkingFrame
-from human_tracker.vision.faces import Detection
-from human_tracker.vision.lifecycle import LOST, TRACKING
-from human_tracker.vision.people import SAME_REGION, PersonTracker, TrackedTarget, kinds_of, primary_target
-from human_tracker.vision.resolution import to_working
-from human_tracker.vision.skin import SkinParameters, SkinSegmenter, default_skin_model
-from human_tracker.vision.target import TargetResult, TargetTracker, parameters_for
-from human_tracker.vision.templates import head_and_shoulders, open_hand
-from human_tracker.vision.tracker import TrackerParameters, TrackEstimate
+from human_tracker.vision.cues.background import BackgroundModel
+from human_tracker.vision.cues.evidence import Evidence, WorkingFrame
+from human_tracker.vision.cues.resolution import to_working
+from human_tracker.vision.cues.skin import SkinParameters, SkinSegmenter, default_skin_model
+from human_tracker.vision.faces.anchoring import FRESH_FACE_FRAMES
+from human_tracker.vision.faces.detector import Detection
+from human_tracker.vision.filter.contour_filter import TrackerParameters, TrackEstimate
+from human_tracker.vision.filter.templates import head_and_shoulders, open_hand
+from human_tracker.vision.geometry.boxes import box_centre, centre_within
+from human_tracker.vision.people.persons import SAME_REGION, PersonTracker, TrackedTarget, kinds_of, primary_target
+from human_tracker.vision.track.lifecycle import LOST, TRACKING
+from human_tracker.vision.track.target import TargetResult, TargetTracker, parameters_for
 
 BAGS = REPO / 'bags'
 

@@ -11,13 +11,13 @@ from conftest import REPO
 from human_tracker.evaluation.metrics import summarise
 from human_tracker.io.images import to_mono8
 from human_tracker.io.sequences import open_sequence
-from human_tracker.vision.background import BackgroundModel
-from human_tracker.vision.evidence import at_working
-from human_tracker.vision.resolution import same_frame, to_working, working_scale, working_shape
-from human_tracker.vision.skin import SkinParameters
-from human_tracker.vision.target import TargetParameters, TargetTracker
-from human_tracker.vision.templates import head_and_shoulders
-from human_tracker.vision.tracker import TrackerParameters, state_from_box
+from human_tracker.vision.cues.background import BackgroundModel
+from human_tracker.vision.cues.evidence import at_working
+from human_tracker.vision.cues.resolution import same_frame, to_working, working_scale, working_shape
+from human_tracker.vision.cues.skin import SkinParameters
+from human_tracker.vision.filter.contour_filter import TrackerParameters, state_from_box
+from human_tracker.vision.filter.templates import head_and_shoulders
+from human_tracker.vision.track.target import TargetParameters, TargetTracker
 
 
 def test_frames_wider_than_the_working_width_are_reduced_to_it() -> None:

@@ -45,10 +45,10 @@ from human_tracker.ros.collector import PoseCollector
 from human_tracker.ros.processes import NodeProcess
 from human_tracker.ros.standard_outputs import frame_name, target_name
 from human_tracker.scenes.generator import HEAD_WIDTH, SCENES, render_scene
-from human_tracker.vision.boxes import box_centre
-from human_tracker.vision.camera import back_project, default_camera_matrix, metric_positions
-from human_tracker.vision.templates import ContourTemplate, fit_template, hand, head_and_shoulders
-from human_tracker.vision.tracker import box_from_state
+from human_tracker.vision.filter.contour_filter import box_from_state
+from human_tracker.vision.filter.templates import ContourTemplate, fit_template, hand, head_and_shoulders
+from human_tracker.vision.geometry.boxes import box_centre
+from human_tracker.vision.geometry.camera import back_project, default_camera_matrix, metric_positions
 
 
 def _pixel(position, camera_matrix: np.ndarray) -> tuple[float, float]:

@@ -17,7 +17,7 @@ from human_tracker.io.bags import read_frames
 from human_tracker.io.images import message_to_bgr8
 from human_tracker.io.skin_samples import read_skin_samples
 from human_tracker.scenes.generator import SCENES, render_scene
-from human_tracker.vision.skin import (
+from human_tracker.vision.cues.skin import (
     MIXED_SKIN,
     SkinClass,
     SkinModel,
@@ -34,7 +34,7 @@ from human_tracker.vision.skin import (
     segment_skin,
     train_skin_model,
 )
-from human_tracker.vision.skin.clusters import _two_means as two_means
+from human_tracker.vision.cues.skin.clusters import _two_means as two_means
 
 SKIN_SAMPLES = REPO.parent / 'shared' / 'data' / 'skin' / 'Skin_NonSkin.txt'
 HGR = REPO.parent / 'shared' / 'data' / 'skin' / 'hgr'

@@ -17,8 +17,8 @@ from std_msgs.msg import Header
 from human_tracker.ros.image_conversion import array_to_image, image_to_array
 from human_tracker.ros.skin_node import SkinNode
 from human_tracker.scenes.generator import SCENES, render_scene
-from human_tracker.vision.resolution import to_working
-from human_tracker.vision.skin import SkinSegmenter, default_skin_model
+from human_tracker.vision.cues.resolution import to_working
+from human_tracker.vision.cues.skin import SkinSegmenter, default_skin_model
 
 RELIABLE = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
 

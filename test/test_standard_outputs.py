@@ -24,7 +24,7 @@ from human_tracker.ros.standard_outputs import (
     normalised_region,
     target_name,
 )
-from human_tracker.vision.facing import Facing
+from human_tracker.vision.faces.facing import Facing
 
 # RIHS01 type hashes of the upstream definitions a Jazzy robot's apt packages are built from:
 # ros2/geometry2 jazzy 646342c6 (tf2_msgs 0.36.4), ros4hri/hri_msgs humble-devel 4e7c1765

@@ -12,15 +12,15 @@ from conftest import DLIB_MISSING, REAL_DATA, REPO
 from human_tracker.evaluation.metrics import centre_errors, summarise
 from human_tracker.io.bags import read_frames
 from human_tracker.ros.image_conversion import message_to_bgr8, to_mono8
-from human_tracker.vision.anchoring import FRESH_FACE_FRAMES
-from human_tracker.vision.background import BackgroundModel
-from human_tracker.vision.boxes import BoxRelation
-from human_tracker.vision.faces import FACE_ON_HEAD, Detection
-from human_tracker.vision.optical_flow import OpticalFlow
-from human_tracker.vision.resolution import to_working, working_scale
-from human_tracker.vision.target import TargetParameters, TargetResult, TargetTracker
-from human_tracker.vision.templates import head_and_shoulders
-from human_tracker.vision.tracker import TrackerParameters, state_from_box
+from human_tracker.vision.cues.background import BackgroundModel
+from human_tracker.vision.cues.optical_flow import OpticalFlow
+from human_tracker.vision.cues.resolution import to_working, working_scale
+from human_tracker.vision.faces.anchoring import FRESH_FACE_FRAMES
+from human_tracker.vision.faces.detector import FACE_ON_HEAD, Detection
+from human_tracker.vision.filter.contour_filter import TrackerParameters, state_from_box
+from human_tracker.vision.filter.templates import head_and_shoulders
+from human_tracker.vision.geometry.boxes import BoxRelation
+from human_tracker.vision.track.target import TargetParameters, TargetResult, TargetTracker
 
 BAGS = REPO / 'bags'
 _FRAMES: dict[str, list] = {}

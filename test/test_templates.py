@@ -8,7 +8,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from human_tracker.vision.templates import (
+from human_tracker.vision.filter.contour_filter import box_from_state, state_from_box
+from human_tracker.vision.filter.templates import (
     closed_hand,
     fit_state,
     fit_template,
@@ -19,7 +20,6 @@ from human_tracker.vision.templates import (
     template_from_control_points,
     transform_points,
 )
-from human_tracker.vision.tracker import box_from_state, state_from_box
 
 
 def test_transform_points_hand_computed() -> None:

@@ -13,10 +13,10 @@ from human_tracker.evaluation.metrics import summarise
 from human_tracker.io.bags import read_frames
 from human_tracker.ros.image_conversion import array_to_image, message_to_bgr8, to_mono8
 from human_tracker.ros.tracker_node import TrackerNode
-from human_tracker.vision.optical_flow import OpticalFlow
-from human_tracker.vision.target import TargetParameters, TargetTracker
-from human_tracker.vision.templates import head_and_shoulders
-from human_tracker.vision.tracker import TrackerParameters
+from human_tracker.vision.cues.optical_flow import OpticalFlow
+from human_tracker.vision.filter.contour_filter import TrackerParameters
+from human_tracker.vision.filter.templates import head_and_shoulders
+from human_tracker.vision.track.target import TargetParameters, TargetTracker
 
 
 def _header(message, seconds: float):

@@ -9,9 +9,9 @@ import pytest
 from human_tracker.evaluation.metrics import summarise
 from human_tracker.io.bags import read_frames
 from human_tracker.ros.image_conversion import message_to_bgr8
-from human_tracker.vision.edges import edge_map
-from human_tracker.vision.templates import hand, head_and_shoulders, transform_points
-from human_tracker.vision.tracker import RESIDUAL_FLOOR, ContourTracker, TrackerParameters
+from human_tracker.vision.cues.edges import edge_map
+from human_tracker.vision.filter.contour_filter import RESIDUAL_FLOOR, ContourTracker, TrackerParameters
+from human_tracker.vision.filter.templates import hand, head_and_shoulders, transform_points
 
 
 def _track(bag, parameters: TrackerParameters) -> tuple[list, list, list]:

@@ -41,8 +41,8 @@ from human_tracker.ros.optical_flow_node import OpticalFlowNode
 from human_tracker.ros.processes import NodeProcess
 from human_tracker.ros.skin_node import SkinNode
 from human_tracker.ros.tracker_node import TrackerNode
-from human_tracker.vision.boxes import box_centre
-from human_tracker.vision.camera import default_camera_matrix
+from human_tracker.vision.geometry.boxes import box_centre
+from human_tracker.vision.geometry.camera import default_camera_matrix
 
 RELIABLE = QoSProfile(depth=200, reliability=ReliabilityPolicy.RELIABLE)
 

@@ -31,9 +31,9 @@ from human_tracker.evaluation.identity import identity_scores, one_id_share, one
 from human_tracker.evaluation.metrics import Box, normalised_errors, summarise
 from human_tracker.io.sequences import open_sequence, write_groundtruth
 from human_tracker.offline import TrackOptions, read_covariances, read_ids, read_poses, track_sequence
-from human_tracker.vision.people import kinds_of
-from human_tracker.vision.target_parameters import TargetParameters, parameters_for
-from human_tracker.vision.tracker import TrackerParameters
+from human_tracker.vision.filter.contour_filter import TrackerParameters
+from human_tracker.vision.people.persons import kinds_of
+from human_tracker.vision.track.parameters import TargetParameters, parameters_for
 
 __all__ = [
     'CONTRIB_BASELINES',
@@ -249,7 +249,7 @@ def compare_on_sequence(
     ``paper`` adds the paper's tracker from the first box (``likelihood: paper``,
     ``proposals: off``, ``compensate_camera`` off, a hand open only: the shape and cue
     likelihoods of eqs. 1-4 and §3.2 alone, on the paper's fixed camera); ``person``
-    adds ours following the whole person (head and hand, :mod:`~human_tracker.vision.people`)
+    adds ours following the whole person (head and hand, :mod:`~human_tracker.vision.people.persons`)
     from the target's first box and without one, the target's own track scored.
     """
     sequence = open_sequence(path)

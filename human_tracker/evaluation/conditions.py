@@ -4,7 +4,7 @@
   few metres away as small as our real sequences' 320x240 frames show them near. Set in a
   frame twice as wide and high (a grey border round it), a sequence keeps its target's camera
   pixels while the default reduction to the working width makes it twice as small: the case
-  ``min_target_width`` is for (:meth:`~human_tracker.vision.target.TargetTracker.working_width`).
+  ``min_target_width`` is for (:meth:`~human_tracker.vision.track.target.TargetTracker.working_width`).
   Ours runs with the rule and without it (``min_target_width`` 0).
 - **Dim light** (:func:`dim`). A camera at the end of its exposure range (a dim room) gives
   frames far darker than our sequences': ``hand2`` at 0.4 of its brightness. Ours runs with
@@ -35,9 +35,9 @@ import numpy as np
 from human_tracker.io.bags import write_bag
 from human_tracker.io.sequences import open_sequence, read_groundtruth, write_groundtruth
 from human_tracker.offline import TrackOptions, track_sequence
-from human_tracker.vision.skin import SkinParameters
-from human_tracker.vision.target_parameters import TargetParameters, parameters_for
-from human_tracker.vision.tracker import TrackerParameters
+from human_tracker.vision.cues.skin import SkinParameters
+from human_tracker.vision.filter.contour_filter import TrackerParameters
+from human_tracker.vision.track.parameters import TargetParameters, parameters_for
 
 __all__ = [
     'DIM_BRIGHTNESS',

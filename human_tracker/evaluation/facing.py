@@ -1,4 +1,4 @@
-"""How well a head's ``facing`` (:mod:`~human_tracker.vision.facing`) matches labels by eye.
+"""How well a head's ``facing`` (:mod:`~human_tracker.vision.faces.facing`) matches labels by eye.
 
 The labels are ``test/data/facing/<sequence>.csv``: ``frame,facing`` on every tenth frame of the
 real sequences where heads turn, ``toward`` (the face turned to the camera, also when a hand or
@@ -14,7 +14,7 @@ import csv
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
-from human_tracker.vision.facing import Facing
+from human_tracker.vision.faces.facing import Facing
 
 __all__ = ['CLASSES', 'LABELS', 'facing_scores', 'read_facing', 'read_labels']
 

@@ -6,7 +6,7 @@ its box on each frame. A true box is matched to a reported one whose centre is w
 ``threshold`` pixels of its own (the radius of precision at 20 px). A frame counts when at
 least one track is annotated on it, as in :mod:`~human_tracker.evaluation.metrics`: a sequence
 annotated on some frames says nothing of the others. A target taken up again under a new id
-(lost for longer than its id is held, or found elsewhere: :mod:`~human_tracker.vision.people`)
+(lost for longer than its id is held, or found elsewhere: :mod:`~human_tracker.vision.people.persons`)
 counts as an identity switch, as it does for a robot that keys what it knows of a person by
 the id.
 """

@@ -37,7 +37,7 @@ from typing import Any
 
 from human_tracker.io.sequences import open_sequence
 from human_tracker.offline import TrackOptions, track_sequence
-from human_tracker.vision.tracker import TrackerParameters
+from human_tracker.vision.filter.contour_filter import TrackerParameters
 
 __all__ = [
     'PRECISION_TOLERANCE',

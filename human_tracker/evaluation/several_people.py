@@ -21,7 +21,7 @@ import numpy as np
 from human_tracker.io.bags import write_bag
 from human_tracker.io.sequences import open_sequence
 from human_tracker.offline import TrackOptions, track_sequence
-from human_tracker.vision.tracker import TrackerParameters
+from human_tracker.vision.filter.contour_filter import TrackerParameters
 
 __all__ = ['REAL_PAIR', 'side_by_side', 'two_people_rows']
 

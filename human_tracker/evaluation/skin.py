@@ -16,7 +16,7 @@ import numpy as np
 
 from human_tracker.io.sequences import open_sequence
 from human_tracker.scenes.generator import SCENES, render_scene
-from human_tracker.vision.skin import SkinModel, SkinParameters, default_skin_model, segment_skin
+from human_tracker.vision.cues.skin import SkinModel, SkinParameters, default_skin_model, segment_skin
 
 __all__ = ['box_mask', 'labelled_photo_scores', 'labelled_video_scores', 'scene_scores', 'skin_scores']
 

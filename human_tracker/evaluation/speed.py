@@ -15,15 +15,15 @@ import cv2
 import numpy as np
 
 from human_tracker.io.images import message_to_bgr8, to_mono8
-from human_tracker.vision.background import BackgroundModel
-from human_tracker.vision.cues import Frame
-from human_tracker.vision.edges import edge_map
+from human_tracker.vision.cues.background import BackgroundModel
+from human_tracker.vision.cues.edges import edge_map
+from human_tracker.vision.cues.optical_flow import OpticalFlow
+from human_tracker.vision.cues.skin import SkinSegmenter, default_skin_model
+from human_tracker.vision.cues.stages import Frame
+from human_tracker.vision.filter.contour_filter import ContourTracker, TrackerParameters
+from human_tracker.vision.filter.templates import head_and_shoulders
 from human_tracker.vision.frame_pipeline import FramePipeline
-from human_tracker.vision.optical_flow import OpticalFlow
-from human_tracker.vision.skin import SkinSegmenter, default_skin_model
-from human_tracker.vision.target import parameters_for
-from human_tracker.vision.templates import head_and_shoulders
-from human_tracker.vision.tracker import ContourTracker, TrackerParameters
+from human_tracker.vision.track.target import parameters_for
 
 __all__ = ['PARTICLE_COUNTS', 'stage_timings']
 

@@ -22,7 +22,7 @@ from rosbags.typesys import Stores, get_typestore
 
 from human_tracker.io.images import stamp_ns
 from human_tracker.scenes.generator import SceneSpec, render_scene
-from human_tracker.vision.camera import default_camera_matrix
+from human_tracker.vision.geometry.camera import default_camera_matrix
 
 __all__ = [
     'BagError',

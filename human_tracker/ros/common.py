@@ -128,7 +128,7 @@ WORKING_WIDTH_DESCRIPTION = (
 
 
 def declare_working_width(node: Node) -> int:
-    """The ``working_width`` of a cue stage (see :mod:`human_tracker.vision.resolution`)."""
+    """The ``working_width`` of a cue stage (see :mod:`human_tracker.vision.cues.resolution`)."""
     return declare(node, 'working_width', 320, WORKING_WIDTH_DESCRIPTION, low=0, high=100000, read_only=True)
 
 

@@ -18,7 +18,7 @@ from geometry_msgs.msg import Point
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
-from human_tracker.vision.camera import back_project
+from human_tracker.vision.geometry.camera import back_project
 
 __all__ = ['LINE_WIDTH', 'TEXT_HEIGHT', 'cleared_markers', 'target_markers']
 

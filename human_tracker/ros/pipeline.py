@@ -23,7 +23,7 @@ from human_tracker.ros.optical_flow_node import OpticalFlowNode
 from human_tracker.ros.skin_node import SkinNode
 from human_tracker.ros.stage import ImageStage, run_nodes
 from human_tracker.ros.tracker_node import TrackerNode
-from human_tracker.vision.cues import CueStages
+from human_tracker.vision.cues.stages import CueStages
 
 __all__ = ['MOTION_CUES', 'CameraSubscriber', 'build_pipeline', 'main']
 

@@ -1,7 +1,7 @@
 """``skin_node``: skin colour segmentation (§3.2) as a ROS 2 node.
 
 Subscribes ``image`` (colour); publishes ``skin`` (mono8: 255 on the skin clusters, 128 on
-skin split from a mixed cluster, 0 elsewhere: :func:`~human_tracker.vision.skin.segment_skin`). With
+skin split from a mixed cluster, 0 elsewhere: :func:`~human_tracker.vision.cues.skin.segment_skin`). With
 ``adaptation_rate`` > 0 it also subscribes the tracker's ``contour`` and adapts the skin
 classes to the skin inside it, never further than ``max_drift`` from the learnt classes;
 ``~/reset`` (std_srvs/Trigger) forgets the adaptation.
@@ -21,15 +21,15 @@ from std_srvs.srv import Trigger
 from human_tracker.ros.common import RESULT_QOS, declare, declare_working_width
 from human_tracker.ros.image_conversion import array_to_image
 from human_tracker.ros.stage import ImageStage, ParameterSpec, spin_node
-from human_tracker.vision.cues import CueStages
-from human_tracker.vision.evidence import Evidence
-from human_tracker.vision.skin import (
+from human_tracker.vision.cues.evidence import Evidence
+from human_tracker.vision.cues.skin import (
     REGION_METHODS,
     SkinModel,
     SkinParameters,
     SkinSegmenter,
     default_skin_model,
 )
+from human_tracker.vision.cues.stages import CueStages
 
 __all__ = ['SKIN_PARAMETERS', 'SkinNode', 'main']
 

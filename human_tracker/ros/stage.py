@@ -67,8 +67,8 @@ from human_tracker.ros.startup import (
     without_help,
 )
 from human_tracker.threads import default_threads, use_threads
-from human_tracker.vision.camera import default_camera_matrix
-from human_tracker.vision.cues import Frame
+from human_tracker.vision.cues.stages import Frame
+from human_tracker.vision.geometry.camera import default_camera_matrix
 
 if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore
@@ -386,7 +386,7 @@ class ImageStage(LifecycleNode):
         return result
 
     def frame(self, image: np.ndarray, header: Any) -> Frame:
-        """``image`` as the frame path takes it (:class:`~human_tracker.vision.cues.Frame`): with its stamp."""
+        """``image`` as the frame path takes it (:class:`~human_tracker.vision.cues.stages.Frame`): with its stamp."""
         return Frame(image, stamp_ns(header))
 
     def use_camera_info(self) -> None:

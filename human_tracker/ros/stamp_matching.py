@@ -21,7 +21,7 @@ from sensor_msgs.msg import Image
 
 from human_tracker.ros.image_conversion import ImageConversionError, image_to_array
 from human_tracker.ros.stage import stamp_ns
-from human_tracker.vision.depth import depth_image_to_metres
+from human_tracker.vision.geometry.depth import depth_image_to_metres
 
 __all__ = ['REMEMBERED_STAMPS', 'FrameGaps', 'HeldFrame', 'MaskInputs', 'MaskMatcher']
 

@@ -14,7 +14,7 @@
   confidence, id) and ``detections_3d`` (Detection3DArray: the metric pose and its covariance,
   the target's physical size) on every frame, empty when nothing is TRACKING.
 
-Every id is the track's (:attr:`~human_tracker.vision.outcomes.TrackedTarget.id`), written as
+Every id is the track's (:attr:`~human_tracker.vision.track.outcomes.TrackedTarget.id`), written as
 :func:`target_name` does: ``f00003`` for a head, ``h00004`` for a hand.
 """
 
@@ -36,7 +36,7 @@ from vision_msgs.msg import (
 )
 
 from human_tracker.ros.common import LATCHED_QOS, RESULT_QOS
-from human_tracker.vision.facing import Facing
+from human_tracker.vision.faces.facing import Facing
 
 __all__ = [
     'FACES_TOPIC',

@@ -16,9 +16,9 @@ the next frame; the service ``~/reset`` (std_srvs/Trigger) forgets the target: W
 motion or a box.
 
 With ``target: person`` it follows a head and ``hands`` hands of up to ``max_people`` people
-(:mod:`~human_tracker.vision.people`): the topics above are the primary target's, on each
+(:mod:`~human_tracker.vision.people.persons`): the topics above are the primary target's, on each
 frame the head ``primary_id`` names while it is followed, else the followed head nearest the
-image's centre (:func:`~human_tracker.vision.people.primary_target`), and
+image's centre (:func:`~human_tracker.vision.people.persons.primary_target`), and
 ``targets`` (nav_msgs/Odometry, one message per tracked target per frame) gives every target:
 ``child_frame_id`` ``person_<person>/<kind>_<id>``, the pose and its covariance in the image's
 optical frame (``header``); the twist is not estimated per target (unknown covariance).
@@ -49,14 +49,13 @@ from human_tracker.ros.stage import DEFERRED, ImageStage, spin_node, stamp_ns
 from human_tracker.ros.stamp_matching import FrameGaps, HeldFrame, MaskInputs
 from human_tracker.ros.tracker_outputs import StatusTopic, TrackerOutputs, estimate_values
 from human_tracker.ros.tracker_parameters import FILTER_PARAMETERS, TARGET_PARAMETERS, declare_settings, start_problem
-from human_tracker.vision.cues import build_people
-from human_tracker.vision.evidence import Evidence
-from human_tracker.vision.frame_pipeline import FramePipeline, FrameResult
-from human_tracker.vision.people import TrackedTarget, targets_line
-from human_tracker.vision.resolution import same_frame
-from human_tracker.vision.skin import has_colour
-from human_tracker.vision.target import TargetParameters, TargetResult, parameters_for
-from human_tracker.vision.tracker import TrackerParameters, check_box_in_image
+from human_tracker.vision.cues.evidence import Evidence
+from human_tracker.vision.cues.resolution import same_frame
+from human_tracker.vision.cues.skin import has_colour
+from human_tracker.vision.filter.contour_filter import TrackerParameters, check_box_in_image
+from human_tracker.vision.frame_pipeline import FramePipeline, FrameResult, build_people
+from human_tracker.vision.people.persons import TrackedTarget, targets_line
+from human_tracker.vision.track.target import TargetParameters, TargetResult, parameters_for
 
 __all__ = ['FILTER_PARAMETERS', 'TARGET_PARAMETERS', 'TrackerNode', 'main']
 

@@ -5,7 +5,7 @@ markers and the debug image (these two only while subscribed).
 
 Poses are in the image's optical frame (metres): the target's distance from its scale and
 physical width, or from a registered depth image where it has readings in the target's region
-(:mod:`~human_tracker.vision.camera`, :mod:`~human_tracker.vision.depth`).
+(:mod:`~human_tracker.vision.geometry.camera`, :mod:`~human_tracker.vision.geometry.depth`).
 """
 
 from __future__ import annotations
@@ -32,13 +32,13 @@ from human_tracker.ros.image_conversion import array_to_image
 from human_tracker.ros.markers import cleared_markers, target_markers
 from human_tracker.ros.standard_outputs import PublishedTarget, StandardOutputs
 from human_tracker.ros.tracker_parameters import SURFACE_TO_CENTRE, TARGET_WIDTHS
-from human_tracker.vision.camera import metric_positions, position_covariance, undistort_pixels
-from human_tracker.vision.depth import region_depth
-from human_tracker.vision.lifecycle import LOST
-from human_tracker.vision.outcomes import state_words
-from human_tracker.vision.people import TrackedTarget, targets_line
-from human_tracker.vision.target import TargetResult, TargetTracker
-from human_tracker.vision.tracker import TrackEstimate, box_from_state
+from human_tracker.vision.filter.contour_filter import TrackEstimate, box_from_state
+from human_tracker.vision.geometry.camera import metric_positions, position_covariance, undistort_pixels
+from human_tracker.vision.geometry.depth import region_depth
+from human_tracker.vision.people.persons import TrackedTarget, targets_line
+from human_tracker.vision.track.lifecycle import LOST
+from human_tracker.vision.track.outcomes import state_words
+from human_tracker.vision.track.target import TargetResult, TargetTracker
 
 __all__ = [
     'UNKNOWN_VARIANCE',
@@ -61,7 +61,8 @@ class MetricPose(NamedTuple):
 
     Attributes:
         pose: The pose and its covariance (metres, radians).
-        camera: (template, K, physical width, distortion) for :func:`~human_tracker.vision.camera.metric_positions`.
+        camera: (template, K, physical width, distortion) for
+            :func:`~human_tracker.vision.geometry.camera.metric_positions`.
         distance: The depth image's distance (metres), None: from the scale.
         cloud: ``(P, 3)`` the particles' metric positions.
         depth_missing: A depth image was given but had no reading in the target's region.

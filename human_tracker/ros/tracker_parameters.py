@@ -15,8 +15,8 @@ import numpy as np
 
 from human_tracker.ros.common import WORKING_WIDTH_DESCRIPTION, declare
 from human_tracker.ros.stage import ParameterSpec
-from human_tracker.vision.camera import FIT_RESIDUAL_GAIN
-from human_tracker.vision.people import kinds_of
+from human_tracker.vision.geometry.camera import FIT_RESIDUAL_GAIN
+from human_tracker.vision.people.persons import kinds_of
 
 __all__ = [
     'FILTER_PARAMETERS',
@@ -210,7 +210,7 @@ class TrackerSettings:
     """The tracker node's settings fixed at start (see :func:`declare_settings` for each one's meaning).
 
     Attributes:
-        kinds: One person's targets (:func:`~human_tracker.vision.people.kinds_of`); the first
+        kinds: One person's targets (:func:`~human_tracker.vision.people.persons.kinds_of`); the first
             is the primary kind (``pose``, ``contour``, ``status``).
     """
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from human_tracker.vision.camera import default_camera_matrix
+from human_tracker.vision.geometry.camera import default_camera_matrix
 
 __all__ = ['PEOPLE_TARGETS', 'SceneSpec', 'SceneFrame', 'render_scene', 'SCENES']
 

@@ -4,13 +4,13 @@
 tracker node fed by the cue nodes and ``make bench`` all run. Each frame goes through two
 steps:
 
-1. :meth:`FramePipeline.measure`: the cue stages (:class:`~human_tracker.vision.cues.CueStages`:
+1. :meth:`FramePipeline.measure`: the cue stages (:class:`~human_tracker.vision.cues.stages.CueStages`:
    background subtraction §2.4.1 or optical flow §2.4.2, skin colour §3.2, the camera's shake)
-   turn the frame into its :class:`~human_tracker.vision.evidence.Evidence`. The skin classes
+   turn the frame into its :class:`~human_tracker.vision.cues.evidence.Evidence`. The skin classes
    adapt to the primary target's contour of the frame before, when adaptation is on.
 2. :meth:`FramePipeline.track`: every target's tracker steps on that evidence
-   (:meth:`~human_tracker.vision.people.PersonTracker.step`), and the primary target (the one a
-   consumer of one target follows, :func:`~human_tracker.vision.outcomes.primary_target`) is
+   (:meth:`~human_tracker.vision.people.persons.PersonTracker.step`), and the primary target (the one a
+   consumer of one target follows, :func:`~human_tracker.vision.track.outcomes.primary_target`) is
    chosen.
 
 A tracker node fed by separate cue nodes receives the evidence's masks on topics and runs the
@@ -24,15 +24,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from human_tracker.vision.cues import CueStages, Frame, build_people, warm_up
-from human_tracker.vision.evidence import Evidence
-from human_tracker.vision.outcomes import TrackedTarget, primary_target
-from human_tracker.vision.people import PersonTracker
-from human_tracker.vision.skin import SkinParameters, SkinSegmenter, default_skin_model
-from human_tracker.vision.target_parameters import TargetParameters
-from human_tracker.vision.tracker import TrackerParameters
+from human_tracker.vision.cues.evidence import Evidence
+from human_tracker.vision.cues.skin import SkinParameters, SkinSegmenter, default_skin_model
+from human_tracker.vision.cues.stages import CueStages, Frame
+from human_tracker.vision.filter.contour_filter import TrackerParameters
+from human_tracker.vision.filter.templates import make_template
+from human_tracker.vision.people.persons import PersonTracker, kinds_of
+from human_tracker.vision.track.outcomes import TrackedTarget, primary_target
+from human_tracker.vision.track.parameters import TargetParameters
+from human_tracker.vision.track.target import TargetTracker
 
-__all__ = ['Frame', 'FramePipeline', 'FrameResult']
+__all__ = ['Frame', 'FramePipeline', 'FrameResult', 'build_people', 'warm_up']
 
 
 @dataclass(frozen=True)
@@ -62,7 +64,7 @@ class FramePipeline:
     """Every cue and every target's tracker of one camera stream, a frame at a time.
 
     Args:
-        people: The targets' trackers (:func:`~human_tracker.vision.cues.build_people`).
+        people: The targets' trackers (:func:`build_people`).
         stages: The cue stages this path computes itself; None: none (the masks come with the
             evidence, from other nodes).
     """
@@ -87,7 +89,7 @@ class FramePipeline:
     ) -> FramePipeline:
         """The path of ``target`` (``head``, ``hand`` or ``person``) with the motion ``cue`` and,
         when ``skin`` (None: when a hand is followed), skin labels, the cues at the first target's
-        working width; ``people_options`` as :func:`~human_tracker.vision.cues.build_people`."""
+        working width; ``people_options`` as :func:`build_people`."""
         people = build_people(target, filter_parameters or TrackerParameters(), parameters, **people_options)
         use_skin = people.uses_skin if skin is None else skin
         segmenter = SkinSegmenter(default_skin_model(), skin_parameters or SkinParameters()) if use_skin else None
@@ -125,3 +127,41 @@ class FramePipeline:
     def warm_up(self) -> None:
         """Compile and run the trackers' kernels once, so that the first real frame is not late."""
         warm_up(self.people)
+
+
+def build_people(
+    target: str,
+    filter_parameters: TrackerParameters,
+    parameters: Mapping[str, TargetParameters] | None = None,
+    *,
+    hands: int = 1,
+    max_people: int = 1,
+    id_hold_frames: int = 15,
+    template_file: str = '',
+    num_points: int = 48,
+) -> PersonTracker:
+    """The trackers of ``target`` (``head``, ``hand`` or ``person``: a head and ``hands`` hands
+    of up to ``max_people`` people), each kind with its ``parameters`` (its defaults where
+    absent); ``template_file`` replaces the first kind's contour, ``num_points`` N of §2.3."""
+    kinds = kinds_of(target, hands)
+    templates = {kind: make_template(kind, num_points) for kind in kinds}
+    templates[kinds[0]] = make_template(kinds[0], num_points, template_file)
+    people = max_people if target == 'person' else 1
+    return PersonTracker(kinds, filter_parameters, dict(parameters or {}), templates, people, id_hold_frames)
+
+
+def warm_up(people: PersonTracker) -> None:
+    """Run every compiled kernel the trackers of ``people`` use once, on a small random frame with
+    their settings, and load the face detectors' model: the first real frame is then not late."""
+    # Enough particles for a share of them to be drawn around a detection.
+    filter_parameters = TrackerParameters(num_particles=10, min_scale=1.0)
+    rng = np.random.default_rng(0)
+    blank = np.zeros((32, 32), dtype=np.uint8)
+    for tracker in people.trackers:
+        if tracker.detector is not None:
+            tracker.detector.load()
+        probe = TargetTracker(tracker.template, filter_parameters, tracker.parameters)
+        probe.initialise_from_box((8.0, 8.0, 16.0, 16.0))  # a box: the appearance kernels run too
+        probe.process(rng.integers(0, 256, (32, 32, 3), dtype=np.uint8), blank, blank)
+        # A detection (a face, a skin region) on a random frame is rare: its densities too.
+        probe.filter.step(blank, detections=np.array([[16.0, 16.0, 16.0, 0.0]]))

@@ -126,8 +126,8 @@ def _track(options: argparse.Namespace) -> int:
 def _eval(options: argparse.Namespace) -> int:
     from human_tracker.evaluation.identity import identity_scores, one_track
     from human_tracker.evaluation.metrics import summarise
+    from human_tracker.io.poses import read_ids, read_tracks
     from human_tracker.io.sequences import open_sequence, read_groundtruth
-    from human_tracker.offline import read_ids, read_tracks
 
     tracks = read_tracks(options.poses)
     truth_path = Path(options.truth)
@@ -188,6 +188,22 @@ def _import(options: argparse.Namespace) -> int:
 
     write_bag(options.out, frames(), storage=options.storage, target=options.target)
     print(f'human_tracker import: wrote {options.out}')
+    return 0
+
+
+def _graph(options: argparse.Namespace) -> int:
+    from human_tracker.ros import graph
+
+    if options.command == 'topics':
+        lines = graph.topics(options.seconds)
+    elif options.command == 'echo':
+        lines = graph.echo(options.topic, options.count, options.timeout)
+        if not lines:
+            raise ValueError(f'no message on {options.topic} within {options.timeout} s')
+        lines = [line for text in lines for line in (text, '---')]
+    else:
+        lines = [graph.call(options.service, options.timeout)]
+    print('\n'.join(lines))
     return 0
 
 
@@ -389,6 +405,19 @@ def main(argv: list[str] | None = None) -> int:
     )
     importer.add_argument('--storage', choices=('mcap', 'sqlite3'), default='mcap')
     importer.set_defaults(run=_import)
+
+    topics = commands.add_parser('topics', help="the ROS graph's topics: type, publishers, subscribers, rate")
+    topics.add_argument('--seconds', type=float, default=2.0, help='how long the rates are measured (default 2)')
+    topics.set_defaults(run=_graph)
+    echo = commands.add_parser('echo', help="a topic's messages, as ros2 topic echo prints them")
+    echo.add_argument('topic', help='topic name, e.g. /diagnostics')
+    echo.add_argument('--count', type=int, default=1, help='messages to print (default 1)')
+    echo.add_argument('--timeout', type=float, default=10.0, help='seconds to wait (default 10)')
+    echo.set_defaults(run=_graph)
+    call = commands.add_parser('call', help='call a std_srvs/Trigger service (a node\'s ~/reset, bag_play\'s ~/pause)')
+    call.add_argument('service', help='service name, e.g. /tracker_node/reset')
+    call.add_argument('--timeout', type=float, default=10.0, help='seconds to wait (default 10)')
+    call.set_defaults(run=_graph)
 
     trainer = commands.add_parser('train-skin', help='learn the skin classes of §3.2 from labelled colour samples')
     trainer.add_argument('samples', help='text file of "B G R class" lines, class 1 skin / 2 non-skin (UCI format)')

@@ -1,16 +1,21 @@
-"""Broken bags give a clear error and a non-zero exit from bag_play and the offline command."""
+"""Broken bags give a clear error and a non-zero exit from bag_play and the offline command; a
+recording cut short, or left without its metadata.yaml, replays what it holds, with a warning."""
 
 from __future__ import annotations
 
+import json
 import shutil
 import subprocess
 import sys
 
 import pytest
+from conftest import REPO
 from ros_harness import environment
 from rosbags.rosbag2 import Writer
 
-from human_tracker.io.bags import TYPESTORE
+from human_tracker.io.bags import TYPESTORE, camera_frame_count, read_frames
+
+BAGS = REPO / 'bags'
 
 
 def _make(kind: str, root, head_bag):
@@ -45,7 +50,9 @@ def _make(kind: str, root, head_bag):
     return path
 
 
-KINDS = ['empty_folder', 'missing_metadata', 'garbage_metadata', 'truncated', 'corrupted']
+KINDS = ['empty_folder', 'garbage_metadata', 'corrupted']
+# What a robot's recording stopped hard leaves: its file without metadata.yaml, or cut short.
+RECOVERABLE = ['missing_metadata', 'truncated']
 
 
 @pytest.mark.parametrize('kind', [*KINDS, 'no_camera_topic'])
@@ -83,3 +90,37 @@ def test_bag_play(kind: str, tmp_path, head_bag) -> None:
     )
     assert result.returncode == 1, result.stderr
     assert 'bag_play: error:' in result.stderr and 'Traceback' not in result.stderr
+
+
+@pytest.mark.parametrize('kind', RECOVERABLE)
+def test_a_recording_stopped_hard_is_tracked_and_replayed(kind: str, tmp_path, head_bag) -> None:
+    bag = _make(kind, tmp_path, head_bag)
+    track = [sys.executable, '-m', 'human_tracker.cli', 'track', str(bag), '--quiet', '--no-video']
+    result = subprocess.run([*track, '--out', str(tmp_path / 'out')], capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    summary = json.loads((tmp_path / 'out' / 'summary.json').read_text())
+    assert summary['frames'] >= (30 if kind == 'truncated' else 120)
+    assert ('cut short' in ' '.join(summary['warnings'])) == (kind == 'truncated')
+    played = subprocess.run(
+        [sys.executable, '-m', 'human_tracker.ros.bag_play', str(bag), '--rate', '50'],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env=environment(),
+    )
+    assert played.returncode == 0, played.stderr
+    assert ('cut short' in played.stderr) == (kind == 'truncated')
+
+
+@pytest.mark.parametrize('name', sorted(p.name for p in BAGS.iterdir() if (p / 'metadata.yaml').exists()))
+def test_each_bag_cut_at_half_gives_back_at_least_40_percent_of_its_frames(name: str, tmp_path) -> None:
+    shutil.copytree(BAGS / name, tmp_path / name)
+    (mcap,) = (tmp_path / name).glob('*.mcap')
+    data = mcap.read_bytes()
+    mcap.write_bytes(data[: len(data) // 2])
+    said: list[str] = []
+    frames = sum(1 for _ in read_frames(tmp_path / name, warn=said.append))
+    whole = camera_frame_count(BAGS / name)
+    print(f'{name}: {frames} of {whole} frames from the first half of the file; {said}')
+    assert frames >= 0.4 * whole
+    assert len(said) == 1 and 'cut short' in said[0]

@@ -6,7 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from human_tracker.bench import _acceptance, _readme_summary, write_between_markers
+from human_tracker.bench import _readme_summary, write_between_markers
+from human_tracker.evaluation.acceptance import acceptance_rows
 from human_tracker.evaluation.accuracy import covariance_table, real_people_table
 
 
@@ -107,7 +108,7 @@ def test_bars_are_applied_to_the_measured_figures() -> None:
             },
         ],
     }
-    verdicts = {row['check']: (row['measured'], row['bar'], row['met']) for row in _acceptance(results)}
+    verdicts = {row['check']: (row['measured'], row['bar'], row['met']) for row in acceptance_rows(results)}
     assert verdicts == {
         'particle filter step, 500 particles (ms) <= 1': (0.8, 1.0, True),
         'head pipeline (ms) <= CSRT / 5': (4.0, 5.0, True),
@@ -177,7 +178,7 @@ def test_bars_are_applied_to_the_measured_figures() -> None:
         'latency, separate, 30 Hz: median (ms) <= 5': (4.0, 5.0, True),
         'latency, separate, 30 Hz: p95 (ms) <= 10': (12.0, 10.0, False),
     }
-    assert _acceptance({}) == []
+    assert acceptance_rows({}) == []
 
 
 def _scores(sequence: str, tracker: str, mean: float, low: float, high: float, wrong: float = 0.0) -> dict[str, object]:

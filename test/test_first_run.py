@@ -78,9 +78,9 @@ def test_a_stage_says_ready_once_spinning_and_warmed_up() -> None:
 
 
 SKIN_KERNELS = {
-    'skin.model': ('_nearest_class',),
-    'skin.regions': ('_distance_levels',),
-    'skin.clusters': ('_modes', '_region_histograms', '_cluster_statistics', '_two_means'),
+    'cues.skin.model': ('_nearest_class',),
+    'cues.skin.regions': ('_distance_levels',),
+    'cues.skin.clusters': ('_modes', '_region_histograms', '_cluster_statistics', '_two_means'),
 }
 
 
@@ -88,14 +88,18 @@ SKIN_KERNELS = {
     ('node', 'target', 'kernels'),
     [
         ('skin_node.SkinNode', None, SKIN_KERNELS),
-        ('tracker_node.TrackerNode', 'head', {'measurement': ('_contour_costs',), 'proposals': ('_log_mixture',)}),
+        (
+            'tracker_node.TrackerNode',
+            'head',
+            {'filter.measurement': ('_contour_costs',), 'filter.proposals': ('_log_mixture',)},
+        ),
         (
             'tracker_node.TrackerNode',
             'hand',
             {
-                'measurement': ('_contour_costs', '_colour_costs'),
-                'edges': ('_strongest_channel',),
-                'proposals': ('_log_mixture',),
+                'filter.measurement': ('_contour_costs', '_colour_costs'),
+                'cues.edges': ('_strongest_channel',),
+                'filter.proposals': ('_log_mixture',),
             },
         ),
     ],

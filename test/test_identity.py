@@ -9,8 +9,9 @@ from conftest import REAL_DATA
 
 from human_tracker.evaluation.identity import identity_scores, one_id_share, one_track
 from human_tracker.evaluation.several_people import REAL_PAIR, side_by_side
+from human_tracker.io.poses import POSE_COLUMNS, read_ids
 from human_tracker.io.sequences import open_sequence
-from human_tracker.offline import POSE_COLUMNS, TrackOptions, read_ids, track_sequence
+from human_tracker.offline import TrackOptions, track_sequence
 
 BOX = (100.0, 100.0, 40.0, 40.0)
 

@@ -19,8 +19,9 @@ from human_tracker.cli import main
 from human_tracker.evaluation.conditions import SHAKE_MARGIN, dim, shake, slow_camera, widen
 from human_tracker.evaluation.metrics import normalised_errors, summarise
 from human_tracker.io.bags import read_frames
+from human_tracker.io.poses import POSE_COLUMNS, read_covariances, read_poses
 from human_tracker.io.sequences import open_sequence, read_groundtruth, write_groundtruth
-from human_tracker.offline import POSE_COLUMNS, TrackOptions, read_covariances, read_poses, track_sequence
+from human_tracker.offline import TrackOptions, track_sequence
 from human_tracker.vision.cues.skin import SkinParameters
 from human_tracker.vision.filter.contour_filter import TrackerParameters
 from human_tracker.vision.track.target import parameters_for

@@ -14,7 +14,8 @@ from conftest import DLIB_MISSING, REAL_DATA, REPO
 from human_tracker.cli import main
 from human_tracker.io.bags import read_frames
 from human_tracker.io.images import to_mono8
-from human_tracker.offline import POSE_COLUMNS, TrackOptions, read_poses, track_sequence
+from human_tracker.io.poses import POSE_COLUMNS, read_poses
+from human_tracker.offline import TrackOptions, track_sequence
 from human_tracker.ros.image_conversion import message_to_bgr8
 from human_tracker.scenes.generator import PEOPLE_TARGETS, SCENES, render_scene
 from human_tracker.vision.cues.background import BackgroundModel

@@ -40,7 +40,8 @@ from human_tracker.io.bags import (
     write_scene_bag,
 )
 from human_tracker.io.images import message_to_bgr8, stamp_ns
-from human_tracker.offline import TrackOptions, read_poses, read_tracks, track_sequence
+from human_tracker.io.poses import read_poses, read_tracks
+from human_tracker.offline import TrackOptions, track_sequence
 from human_tracker.ros.collector import PoseCollector
 from human_tracker.ros.processes import NodeProcess
 from human_tracker.ros.standard_outputs import frame_name, target_name

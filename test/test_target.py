@@ -20,7 +20,7 @@ from human_tracker.vision.faces.detector import FACE_ON_HEAD, Detection
 from human_tracker.vision.filter.contour_filter import TrackerParameters, state_from_box
 from human_tracker.vision.filter.templates import head_and_shoulders
 from human_tracker.vision.geometry.boxes import BoxRelation
-from human_tracker.vision.track.target import TargetParameters, TargetResult, TargetTracker
+from human_tracker.vision.track.target import TargetParameters, TargetResult, TargetTracker, parameters_for
 
 BAGS = REPO / 'bags'
 _FRAMES: dict[str, list] = {}
@@ -595,3 +595,16 @@ def test_the_detectors_thread_gives_the_same_track_however_slow_the_detector() -
     for a, b in zip(fast, slow, strict=True):
         assert a.detections == b.detections
         np.testing.assert_array_equal(a.estimate.state, b.estimate.state)
+
+
+def test_a_reset_forgets_where_the_target_was_lost() -> None:
+    """A reset forgets the whole target, as a start from a box does: a head lost again after it
+    (a frame gap) is not "back where it was lost" at the place of the target before the reset."""
+    tracker = TargetTracker(head_and_shoulders(), TrackerParameters(seed=0), parameters_for('head'))
+    tracker.initialise_from_box((100.0, 80.0, 60.0, 70.0))
+    tracker.lost_at = np.array([130.0, 115.0, 60.0, 0.0])
+    tracker.reset()
+    assert tracker.lost_at is None and tracker.appearance is None and tracker.weak_frames == 0
+    tracker.lost_at = np.array([130.0, 115.0, 60.0, 0.0])
+    tracker.initialise_from_box((10.0, 10.0, 60.0, 70.0))
+    assert tracker.lost_at is None

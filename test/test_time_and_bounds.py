@@ -13,6 +13,7 @@ from human_tracker.evaluation.metrics import summarise
 from human_tracker.io.bags import read_frames
 from human_tracker.ros.image_conversion import array_to_image, message_to_bgr8, to_mono8
 from human_tracker.ros.tracker_node import TrackerNode
+from human_tracker.vision.cues.evidence import Evidence
 from human_tracker.vision.cues.optical_flow import OpticalFlow
 from human_tracker.vision.filter.contour_filter import TrackerParameters
 from human_tracker.vision.filter.templates import head_and_shoulders
@@ -37,7 +38,7 @@ def test_after_a_gap_motion_restarts_the_filter_where_the_person_now_is() -> Non
             mask = flow.apply(to_mono8(images[index]))[1]
             seconds = index / 30 + (5.0 if index >= 70 else 0.0)
             header = _header(array_to_image(images[index], 'bgr8'), seconds)
-            results[index] = node.process_frame(images[index], header, motion=mask)
+            results[index] = node.process_frame(images[index], header, evidence=Evidence(images[index], motion=mask))
     finally:
         node.destroy_node()
         rclpy.try_shutdown()
@@ -142,7 +143,7 @@ def test_a_mask_of_another_frame_shape_is_counted_and_the_frame_tracked_without_
         for index, motion in enumerate([np.zeros((120, 160), np.uint8), np.zeros((100, 100), np.uint8), None]):
             image = message_to_bgr8(frames[index].message)
             header = _header(array_to_image(image, 'bgr8'), index / 30)
-            results.append(node.process_frame(image, header, motion=motion))
+            results.append(node.process_frame(image, header, evidence=Evidence(image, motion=motion)))
     finally:
         node.destroy_node()
         rclpy.try_shutdown()

@@ -38,8 +38,8 @@ from human_tracker.ros.pipeline import build_pipeline
 
 def signatures():
     found = {}
-    for info in pkgutil.iter_modules(vision.__path__):
-        module = importlib.import_module(f'human_tracker.vision.{info.name}')
+    for info in pkgutil.walk_packages(vision.__path__, 'human_tracker.vision.'):
+        module = importlib.import_module(info.name)
         for name, value in vars(module).items():
             if isinstance(value, CPUDispatcher) and value.__module__ == module.__name__:
                 found[f'{info.name}.{name}'] = {str(s) for s in value.signatures}
@@ -54,7 +54,7 @@ before = signatures()
 for frame in list(read_frames(bag))[:count]:
     camera.process_frame(message_to_bgr8(frame.message), frame.message.header)
 after = signatures()
-print(json.dumps(sorted(k for k in after if after[k] - before.get(k, set()))))
+print(json.dumps({'kernels': len(after), 'new': sorted(k for k in after if after[k] - before.get(k, set()))}))
 """
 
 
@@ -76,7 +76,8 @@ def test_the_pipeline_s_warm_up_reaches_every_kernel_its_frames_need(bag: str, p
         env=environment(),
     )
     assert done.returncode == 0, done.stderr[-3000:]
-    assert json.loads(done.stdout.strip().splitlines()[-1]) == [], done.stdout
+    found = json.loads(done.stdout.strip().splitlines()[-1])
+    assert found['kernels'] >= 10 and found['new'] == [], done.stdout  # every compiled kernel of vision/ seen
 
 
 @pytest.mark.timed

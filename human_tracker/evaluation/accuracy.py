@@ -29,8 +29,9 @@ from human_tracker.evaluation.baselines import run_baseline
 from human_tracker.evaluation.facing import LABELS, facing_scores, read_facing, read_labels
 from human_tracker.evaluation.identity import identity_scores, one_id_share, one_track
 from human_tracker.evaluation.metrics import Box, normalised_errors, summarise
+from human_tracker.io.poses import read_covariances, read_ids, read_poses
 from human_tracker.io.sequences import open_sequence, write_groundtruth
-from human_tracker.offline import TrackOptions, read_covariances, read_ids, read_poses, track_sequence
+from human_tracker.offline import TrackOptions, track_sequence
 from human_tracker.vision.filter.contour_filter import TrackerParameters
 from human_tracker.vision.people.persons import kinds_of
 from human_tracker.vision.track.parameters import TargetParameters, parameters_for

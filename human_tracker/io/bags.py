@@ -7,10 +7,12 @@ corners, or no points where the target is out of view).
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator, Mapping
+import logging
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
+from io import BytesIO
 from pathlib import Path
-from typing import TypeVar
+from typing import BinaryIO, TypeVar
 
 import cv2
 import numpy as np
@@ -24,10 +26,16 @@ from human_tracker.io.images import stamp_ns
 from human_tracker.scenes.generator import SceneSpec, render_scene
 from human_tracker.vision.geometry.camera import default_camera_matrix
 
+_LOG = logging.getLogger(__name__)
+_MCAP_MAGIC = b'\x89MCAP0\r\n'
+_MCAP_DATA_END = 0x0F
+_MCAP_CHUNK = 0x06
+
 __all__ = [
     'BagError',
     'BagFrame',
     'BareMcapReader',
+    'CutMcapReader',
     'open_bag',
     'CAMERA_TOPIC',
     'COMPRESSED_CAMERA_TOPIC',
@@ -295,8 +303,76 @@ class BareMcapReader:
         self.close()
 
 
+class CutMcapReader(BareMcapReader):
+    """An ``.mcap`` file cut short: every complete record before the cut, in order.
+
+    Its summary and footer were never written, so the topics, types and counts come from a scan
+    of the records that are whole (MCAP's records each carry their length), and of the complete
+    records of an uncompressed chunk the cut fell in. ``note`` says how many messages and
+    seconds were recovered.
+    """
+
+    note = ''
+
+    def open(self) -> None:
+        """Find the end of the last complete record and read the records up to it, then those
+        of the chunk the cut fell in."""
+        storage = self.storage
+        storage.bio = bio = storage.path.open('rb')
+        try:
+            if bio.read(len(_MCAP_MAGIC)) != _MCAP_MAGIC or bio.read(1) != b'\x01':
+                raise ReaderError(f'{storage.path} is not an MCAP file')
+            header = int.from_bytes(bio.read(8), 'little')
+            storage.data_start = position = bio.tell() + header
+            size = bio.seek(0, 2)
+            opcode = 0
+            while position + 9 <= size:
+                bio.seek(position)
+                opcode, length = bio.read(1)[0], int.from_bytes(bio.read(8), 'little')
+                if opcode == _MCAP_DATA_END or position + 9 + length > size:
+                    break
+                position += 9 + length
+            storage.data_end = position
+            storage.meta_scan()
+            records = _uncompressed_chunk_records(bio, position + 9, size) if opcode == _MCAP_CHUNK else b''
+            # The cut chunk's records, read by a second reader sharing the file's schemas and channels.
+            self.tail = McapReader(storage.path)
+            self.tail.bio, self.tail.data_end = BytesIO(records), len(records)
+            self.tail.schemas, self.tail.channels = storage.schemas, storage.channels
+            self.tail.connections = list(storage.connections)
+            self.tail.meta_scan()
+        except BaseException:
+            storage.close()
+            raise
+        first, second = storage.statistics, self.tail.statistics
+        storage.connections = [
+            c._replace(msgcount=first.channel_message_counts.get(c.id, 0) + second.channel_message_counts.get(c.id, 0))
+            for c in self.tail.connections
+        ]
+        stamps = [t for stats in (first, second) if stats.message_count for t in (stats.start_time, stats.end_time)]
+        count = first.message_count + second.message_count
+        start, end = (min(stamps), max(stamps)) if stamps else (2**63 - 1, -1)
+        storage.metadata = storage.metadata._replace(
+            start_time=start, end_time=end + 1, duration=end - start + 1 if count else 0, message_count=count
+        )
+        self.note = (
+            f'{storage.path} was cut short (no end of file: the recording never finished): read {count} '
+            f'messages over {(end - start) / 1e9 if count else 0.0:.1f} s from the {size} bytes written'
+        )
+
+    def messages(
+        self, connections: Iterable[Connection] = (), start: int | None = None
+    ) -> Iterator[tuple[Connection, int, bytes]]:
+        """The complete records' messages, then those of the chunk the cut fell in."""
+        wanted = list(connections) or self.connections
+        yield from self.storage.messages_scan(wanted, start=start)
+        yield from self.tail.messages_scan(wanted, start=start)
+
+
 def open_bag(path: str | Path) -> AnyReader | BareMcapReader:
-    """An unopened reader of a rosbag2 bag: its folder, a file in it, or a bare ``.mcap`` file.
+    """An unopened reader of a rosbag2 bag: its folder, a file in it, or a bare ``.mcap`` file; a
+    recording of one ``.mcap`` cut short (no end of file: power lost, disk full) is read up to
+    the cut (:class:`CutMcapReader`, whose ``note`` says what it recovered).
 
     Raises:
         BagError: Nothing is there.
@@ -304,9 +380,43 @@ def open_bag(path: str | Path) -> AnyReader | BareMcapReader:
     path = Path(path)
     if not path.exists():
         raise BagError(f'cannot read bag {path}: it does not exist')
-    if path.is_file() and path.suffix == '.mcap' and not (path.parent / 'metadata.yaml').exists():
-        return BareMcapReader(path)
+    files = [path] if path.is_file() else sorted(path.glob('*.mcap'))
+    if len(files) == 1 and files[0].suffix == '.mcap' and _cut_short(files[0]):
+        return CutMcapReader(files[0])
+    folder = path.parent if path.is_file() else path
+    if not (folder / 'metadata.yaml').exists():
+        # ros2 bag record writes metadata.yaml last: a recording stopped hard has only its file.
+        if len(files) == 1 and files[0].suffix == '.mcap':
+            return BareMcapReader(files[0])
+        raise BagError(f'cannot read bag {path}: no metadata.yaml beside it and not one .mcap file')
     return AnyReader([path.parent if path.is_file() else path], default_typestore=TYPESTORE)
+
+
+def _uncompressed_chunk_records(bio: BinaryIO, start: int, size: int) -> bytes:
+    """The complete records (schemas, channels, messages) of the chunk whose body starts at
+    ``start`` and was cut at ``size``, as top-level MCAP records; none if the chunk is
+    compressed (a cut compressed stream cannot be read)."""
+    bio.seek(start + 28)  # message start and end times, uncompressed size, CRC
+    if bio.read(int.from_bytes(bio.read(4), 'little')):  # the compression's name
+        return b''
+    position = end = bio.seek(8, 1)  # past the records' length
+    while position + 9 <= size:
+        bio.seek(position)
+        length = int.from_bytes(bio.read(9)[1:], 'little')
+        if position + 9 + length > size:
+            break
+        position += 9 + length
+    bio.seek(end)
+    return bio.read(position - end)
+
+
+def _cut_short(path: Path) -> bool:
+    """Whether an ``.mcap`` file lacks its closing magic (its writer never finished it)."""
+    with path.open('rb') as handle:
+        if handle.seek(0, 2) < 2 * len(_MCAP_MAGIC):
+            return False
+        handle.seek(-len(_MCAP_MAGIC), 2)
+        return handle.read() != _MCAP_MAGIC
 
 
 def ground_truth_target(path: str | Path) -> str | None:
@@ -344,13 +454,21 @@ def camera_frame_count(path: str | Path) -> int | None:
     return counts[0] if counts and counts[0] > 0 else None
 
 
-def read_frames(path: str | Path, *, camera_topic: str | None = None, target: str | None = None) -> Iterator[BagFrame]:
+def read_frames(
+    path: str | Path,
+    *,
+    camera_topic: str | None = None,
+    target: str | None = None,
+    warn: Callable[[str], None] | None = None,
+) -> Iterator[BagFrame]:
     """Iterate over the camera frames of a bag with their ground truth matched by stamp.
 
     Args:
         path: Bag folder, or a single ``.mcap`` / ``.db3`` file.
         camera_topic: Topic to read; by default the first Image or CompressedImage topic.
         target: Which ``/ground_truth/<target>`` topic to match; by default the first one.
+        warn: Told what was recovered of a recording cut short (:class:`CutMcapReader`);
+            None: logged as a warning.
 
     Raises:
         BagError: The bag is missing, unreadable, or has no such camera topic.
@@ -358,6 +476,8 @@ def read_frames(path: str | Path, *, camera_topic: str | None = None, target: st
     path = Path(path)
     try:
         with open_bag(path) as reader:
+            if isinstance(reader, CutMcapReader):
+                (warn or _LOG.warning)(reader.note)
             cameras = [
                 c
                 for c in reader.connections

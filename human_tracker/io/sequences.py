@@ -74,7 +74,7 @@ class Sequence:
     def __iter__(self) -> Iterator[SequenceFrame]:
         try:
             if _is_bag(self.path):
-                for frame in read_frames(self.path):
+                for frame in read_frames(self.path, warn=self._warn):
                     try:
                         image, reason = message_to_bgr8(frame.message), ''
                     except ImageConversionError as err:
@@ -106,9 +106,11 @@ class Sequence:
 
 
 def _is_bag(path: Path) -> bool:
+    """A bag file, a bag's folder, or a folder holding one ``.mcap`` (a recording stopped before
+    ros2 bag record wrote its metadata.yaml)."""
     if path.is_file():
         return path.suffix in ('.mcap', '.db3')
-    return (path / 'metadata.yaml').exists()
+    return (path / 'metadata.yaml').exists() or len(list(path.glob('*.mcap'))) == 1
 
 
 def open_sequence(path: str | Path) -> Sequence:

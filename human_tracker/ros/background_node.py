@@ -16,7 +16,9 @@ from std_srvs.srv import Trigger
 
 from human_tracker.ros.common import RESULT_QOS, declare_working_width
 from human_tracker.ros.image_conversion import array_to_image
-from human_tracker.ros.stage import ImageStage, ParameterSpec, spin_node
+from human_tracker.ros.parameter_binding import ParameterSpec
+from human_tracker.ros.run import spin_node
+from human_tracker.ros.stage import ImageStage
 from human_tracker.vision.cues.background import BackgroundModel, BackgroundParameters
 from human_tracker.vision.cues.evidence import Evidence
 from human_tracker.vision.cues.stages import CueStages

@@ -34,7 +34,7 @@ from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Bool
 from std_srvs.srv import Trigger
 
-from human_tracker.io.bags import BagError, guarded, open_bag
+from human_tracker.io.bags import BagError, CutMcapReader, guarded, open_bag
 from human_tracker.ros.common import (
     LATCHED_QOS,
     RESULT_QOS,
@@ -110,11 +110,18 @@ class BagPlayer(Node):
         self.rate = rate
         self.reader = open_bag(bag)
         self.reader.open()
+        if isinstance(self.reader, CutMcapReader):
+            self.get_logger().warn(self.reader.note)
         remaps = remaps or {}
         self.connections = [c for c in self.reader.connections if not topics or c.topic in topics]
-        missing = set(topics) - {c.topic for c in self.reader.connections}
-        if missing:
-            raise ValueError(f'topics not in {bag}: {", ".join(sorted(missing))}')
+        recorded = sorted({c.topic for c in self.reader.connections})
+        # A topic named that the bag lacks (a misspelt remap, the wrong bag) is refused, not ignored.
+        for option, named in (('--topics', set(topics)), ('--remap', set(remaps))):
+            missing = named - set(recorded)
+            if missing:
+                raise ValueError(
+                    f'{option}: {", ".join(sorted(missing))} not in {bag}; its topics: {", ".join(recorded)}'
+                )
         self.publishers_by_id = {}
         for conn in self.connections:
             name = remaps.get(conn.topic, conn.topic)

@@ -47,6 +47,7 @@ class PoseCollector(Node):
     def __init__(self, namespace: str = '', *, markers: bool = False, standard: bool = False) -> None:
         super().__init__('pose_collector', namespace=namespace)
         self.poses: dict[int, PoseWithCovarianceStamped] = {}
+        self.pose_arrivals: dict[int, float] = {}  # monotonic seconds each pose arrived, by stamp
         self.contours: dict[int, np.ndarray] = {}
         self.frame_ids: set[str] = set()
         self.diagnostics: dict[str, dict[str, str]] = {}
@@ -96,6 +97,7 @@ class PoseCollector(Node):
 
     def _on_pose(self, msg: PoseWithCovarianceStamped) -> None:
         self.poses[stamp_ns(msg.header)] = msg
+        self.pose_arrivals[stamp_ns(msg.header)] = time.monotonic()
         self.frame_ids.add(msg.header.frame_id)
 
     def _on_target(self, msg: Odometry) -> None:

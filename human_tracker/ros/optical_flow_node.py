@@ -19,7 +19,9 @@ from sensor_msgs.msg import Image
 
 from human_tracker.ros.common import RESULT_QOS, declare, declare_working_width
 from human_tracker.ros.image_conversion import array_to_image
-from human_tracker.ros.stage import ImageStage, ParameterSpec, spin_node, stamp_ns
+from human_tracker.ros.parameter_binding import ParameterSpec
+from human_tracker.ros.run import spin_node
+from human_tracker.ros.stage import ImageStage, stamp_ns
 from human_tracker.vision.cues.evidence import Evidence
 from human_tracker.vision.cues.optical_flow import FlowParameters, OpticalFlow
 from human_tracker.vision.cues.stages import CueStages, Frame

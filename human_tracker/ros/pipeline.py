@@ -20,8 +20,9 @@ from rclpy.node import Node
 from human_tracker.ros.background_node import BackgroundNode
 from human_tracker.ros.common import declare
 from human_tracker.ros.optical_flow_node import OpticalFlowNode
+from human_tracker.ros.run import run_nodes
 from human_tracker.ros.skin_node import SkinNode
-from human_tracker.ros.stage import ImageStage, run_nodes
+from human_tracker.ros.stage import ImageStage
 from human_tracker.ros.tracker_node import TrackerNode
 from human_tracker.vision.cues.stages import CueStages
 

@@ -15,28 +15,16 @@ that keeps up, and a mask published before its subscriber matched is lost.
 
 from __future__ import annotations
 
-import array
-import dataclasses
 import functools
-import sys
-import threading
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from functools import partial
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import rclpy
-import rclpy.logging
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
-from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
-from rclpy.node import Node
-from rclpy.parameter import Parameter
 from rosbags.serde import SerdeError
 from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 from std_msgs.msg import Bool, Header
@@ -51,21 +39,11 @@ from human_tracker.ros.common import (
     declare,
     diagnostic_status,
     image_qos,
-    init_without_signal_handlers,
     publish_diagnostics,
-    shutdown,
-    spin_until,
-    stop_on_signals,
 )
 from human_tracker.ros.image_conversion import ImageConversionError, message_to_bgr8
-from human_tracker.ros.startup import (
-    StartError,
-    check_configuration,
-    declare_strict,
-    quiet_discovery,
-    usage,
-    without_help,
-)
+from human_tracker.ros.parameter_binding import ParameterBindings, ParameterSpec
+from human_tracker.ros.startup import PACKAGE_NODES
 from human_tracker.threads import default_threads, use_threads
 from human_tracker.vision.cues.stages import Frame
 from human_tracker.vision.geometry.camera import default_camera_matrix
@@ -73,13 +51,15 @@ from human_tracker.vision.geometry.camera import default_camera_matrix
 if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore
 
-__all__ = ['DEFERRED', 'ParameterSpec', 'ImageStage', 'run_nodes', 'spin_node', 'stamp_ns']
+__all__ = ['DEFERRED', 'ImageStage', 'stamp_ns']
 
 DEFERRED = object()
 """Returned by ``handle_frame`` for a frame held for later (it is timed when processed)."""
 
 # Seconds a warmed-up stage waits for publishers on its inputs before it says ready anyway.
 INPUT_WAIT = 30.0
+# Seconds without a frame after ready before a stage says where it listens and what is published.
+NO_INPUT_WAIT = 5.0
 
 # camera_info's distortion models whose coefficients are OpenCV's (k1, k2, p1, p2, k3, ...).
 _OPENCV_DISTORTION_MODELS = ('plumb_bob', 'rational_polynomial')
@@ -92,30 +72,6 @@ def _typestore() -> Typestore:
     from human_tracker.io.bags import TYPESTORE
 
     return TYPESTORE
-
-
-def _plain(value: Any) -> Any:
-    """Array parameters arrive as lists or array.array; the dataclasses hold tuples."""
-    return tuple(value) if isinstance(value, (list, tuple, array.array)) else value
-
-
-@dataclass(frozen=True)
-class ParameterSpec:
-    """How one field of an algorithm's parameter dataclass appears as a ROS parameter.
-
-    Attributes:
-        field: Field name in the dataclass (also the ROS parameter name).
-        description: What it means, with unit and the paper's symbol.
-        low: Lower bound for numbers (None: no range declared).
-        high: Upper bound for numbers.
-        runtime: Whether it may change while the node runs.
-    """
-
-    field: str
-    description: str
-    low: float | None = None
-    high: float | None = None
-    runtime: bool = True
 
 
 class ImageStage(LifecycleNode):
@@ -144,8 +100,7 @@ class ImageStage(LifecycleNode):
         self.camera_matrix: np.ndarray | None = None
         self.rectified_matrix: np.ndarray | None = None
         self.distortion: np.ndarray | None = None
-        # Each bound dataclass: its ROS names' fields, its current value, and how a change is applied.
-        self._bindings: list[tuple[dict[str, str], Callable[[], Any], Callable[[Any], None]]] = []
+        self.parameter_bindings = ParameterBindings(self)
         self.diagnostics_pub = self.create_publisher(DiagnosticArray, '/diagnostics', RESULT_QOS)
         period = declare(
             self,
@@ -173,10 +128,10 @@ class ImageStage(LifecycleNode):
         self.threads = use_threads(threads)
         self.configuration_problems: list[str] = []
         self.ready = False
+        self._spinning = False
         self.ready_pub = self.create_publisher(Bool, '~/ready', LATCHED_QOS)
         # Fires once the executor spins, that is after every subclass has finished building.
         self._ready_timer = self.create_timer(0.01, self._become_ready, clock=self.steady_clock)
-        self.add_on_set_parameters_callback(self._on_set_parameters)
         managed = declare(
             self,
             'managed',
@@ -187,8 +142,10 @@ class ImageStage(LifecycleNode):
         if not managed:
             self.trigger_configure()
             self.trigger_activate()
+        self._image_input = None
+        self._ready_at = 0.0
         if subscribe_image:
-            transport = declare(
+            transport = self.image_transport = declare(
                 self,
                 'image_transport',
                 'raw',
@@ -197,6 +154,16 @@ class ImageStage(LifecycleNode):
             )
             if transport not in ('raw', 'compressed'):
                 raise ValueError(f"image_transport must be 'raw' or 'compressed', got {transport!r}")
+            self.no_input_wait = declare(
+                self,
+                'no_input_warning',
+                NO_INPUT_WAIT,
+                'Seconds without a frame after ready before the node says which topic it listens on and which '
+                'image topics the graph has (log and /diagnostics); 0: never.',
+                low=0.0,
+                high=3600.0,
+                read_only=True,
+            )
             qos = image_qos(self)
             # Raw (serialised) messages: on_wire_image reads them without copying the pixels.
             if transport == 'compressed':
@@ -214,6 +181,9 @@ class ImageStage(LifecycleNode):
     def _become_ready(self) -> None:
         self._ready_timer.cancel()
         self.destroy_timer(self._ready_timer)
+        self._spinning = True
+        if self.active:
+            self.get_logger().info('active')
         # A first run compiles for tens of seconds: say why the node is not ready yet.
         self.get_logger().info('warming up: compiling and running the kernels once')
         start = time.perf_counter()
@@ -239,62 +209,20 @@ class ImageStage(LifecycleNode):
                 'frames are tracked without those inputs until one comes'
             )
         self.ready = True
+        self._ready_at = time.monotonic()
         self.ready_pub.publish(Bool(data=True))
         self.get_logger().info('ready')
 
     def bind_parameters(
         self, instance: Any, specs: Sequence[ParameterSpec], apply: Callable[[Any], None], prefix: str = ''
     ) -> Any:
-        """Declare ``specs`` (as ``prefix`` + field: ``hand.lost_frames``) from the dataclass
-        ``instance``'s defaults; return it with the declared values.
-
-        Run-time changes build a new instance, call its ``validate()`` and, if it passes,
-        hand it to ``apply``; otherwise the change is refused with the validation message.
-        """
-        values = {}
-        for spec in specs:
-            default = getattr(instance, spec.field)
-            if isinstance(default, tuple):
-                default = list(default)
-            value = declare(
-                self,
-                prefix + spec.field,
-                default,
-                spec.description,
-                low=spec.low,
-                high=spec.high,
-                read_only=not spec.runtime,
-            )
-            values[spec.field] = tuple(value) if isinstance(default, list) else value
-        bound = dataclasses.replace(instance, **values)
-        bound.validate()
-        current = {'value': bound}
-
-        def commit(new: Any) -> None:
-            current['value'] = new
-            apply(new)
-
-        fields = {prefix + spec.field: spec.field for spec in specs}
-        self._bindings.append((fields, lambda: current['value'], commit))
-        return bound
-
-    def _on_set_parameters(self, parameters: list[Parameter]) -> SetParametersResult:
-        for fields, get, commit in self._bindings:
-            changes = {fields[p.name]: _plain(p.value) for p in parameters if p.name in fields}
-            if not changes:
-                continue
-            candidate = dataclasses.replace(get(), **changes)
-            try:
-                candidate.validate()
-            except ValueError as err:
-                return SetParametersResult(successful=False, reason=str(err))
-            commit(candidate)
-            self.get_logger().info(f'parameters changed: {changes}')
-        return SetParametersResult(successful=True)
+        """:meth:`ParameterBindings.bind` on this node's parameters."""
+        return self.parameter_bindings.bind(instance, specs, apply, prefix)
 
     def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
         self.active = True
-        self.get_logger().info('active')
+        if self._spinning:  # an unmanaged node activates while it is built: said once it runs
+            self.get_logger().info('active')
         return super().on_activate(state)
 
     def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
@@ -457,107 +385,44 @@ class ImageStage(LifecycleNode):
         run): ``/diagnostics`` says it, at WARN level."""
         return list(self.configuration_problems)
 
+    def input_problem(self) -> str | None:
+        """Why this node has processed nothing, once no frame has reached it for ``no_input_warning``
+        seconds after it said ready: the topic and transport it listens on, and the image topics
+        the graph has (the likely fix: a remap or ``image_transport``); None while frames come."""
+        if self._image_input is None or not self.ready or not self.active or self.counters.received > 0:
+            return None
+        waited = time.monotonic() - self._ready_at
+        if self.no_input_wait <= 0 or waited < self.no_input_wait:
+            return None
+        topic = self._image_input.topic_name
+        found = [
+            f'{name} ({"compressed" if "sensor_msgs/msg/CompressedImage" in types else "raw"})'
+            for name, types in self.get_topic_names_and_types()
+            if {'sensor_msgs/msg/Image', 'sensor_msgs/msg/CompressedImage'} & set(types) and self._camera_like(name)
+        ]
+        graph = f'image topics on the graph: {", ".join(found)}' if found else 'no image topic on the graph'
+        hint = ' (image_transport:=compressed reads */compressed; remap image:=TOPIC)' if found else ''
+        return (
+            f'no frame for {waited:.0f} s on {topic} ({self.image_transport}, '
+            f'{self.count_publishers(topic)} publishers); {graph}{hint}'
+        )
+
+    def _camera_like(self, topic: str) -> bool:
+        """Whether ``topic`` has a publisher other than this package's nodes (whose images are
+        masks and debug views, not a camera)."""
+        publishers = self.get_publishers_info_by_topic(topic)
+        return any(info.node_name not in PACKAGE_NODES for info in publishers)
+
     def _publish_diagnostics(self) -> None:
         state, extra = self.diagnostics_state()
         extra = {'ready': self.ready, 'threads': self.threads, 'time_resets': self.time_resets, **extra}
         warnings = self.warnings()
+        problem = self.input_problem()
+        if problem is not None:
+            warnings.append(f'NO_INPUT: {problem}')
+            self.get_logger().warn(problem, throttle_duration_sec=30.0)
         level = None
         if warnings:
             extra['warnings'], level = '; '.join(warnings), DiagnosticStatus.WARN
         status = diagnostic_status(self, self.counters, self.timer_stats, state=state, level=level, extra=extra)
         publish_diagnostics(self, self.diagnostics_pub, [status])
-
-
-def run_nodes(
-    build: Callable[[], list[Node]],
-    args: list[str] | None = None,
-    *,
-    name: str = 'node',
-    run: Callable[[list[Node]], None] | None = None,
-    summary: str = '',
-) -> int:
-    """Init rclpy, build the nodes, run them until SIGINT or SIGTERM; return the exit code.
-
-    By default the nodes are spun in this thread. With ``run``, ``run(nodes)`` works in this
-    thread while they are spun in another (their timers, services and parameters keep
-    answering) until it returns.
-
-    ``-h`` / ``--help`` prints the nodes' parameters (defaults, ranges, descriptions) and
-    topics, with ``summary`` above them, and exits 0: the nodes are built with discovery off
-    and never spun. Malformed ROS arguments, a missing or unparseable parameter file, a
-    parameter or parameter-file section that no node declares (unless ``strict:=false``: a
-    warning, also in ``/diagnostics``), a ValueError or an rclpy parameter error while
-    building or running (a value out of range or of the wrong type, a missing file): one line
-    with the reason and exit code 2, no traceback.
-
-    A signal stops the spinning between two callbacks (see
-    :func:`~human_tracker.ros.common.stop_on_signals`); the nodes are then destroyed and rclpy
-    shut down here, in order. Ctrl-C exits with 0.
-    """
-    argv, wants_help = without_help(sys.argv if args is None else args)
-    if wants_help:
-        return _print_usage(build, argv, name, summary)
-    try:
-        init_without_signal_handlers(argv)
-    except StartError as err:
-        print(f'{name}: cannot start: {err}', file=sys.stderr)
-        return 2
-    nodes: list[Node] = []
-    executor = SingleThreadedExecutor()
-    spinner: threading.Thread | None = None
-    code = 0
-    with stop_on_signals(interrupt=run is not None) as stop:
-        try:
-            nodes = build()
-            check_configuration(nodes, argv)
-            for node in nodes:
-                executor.add_node(node)
-            if run is None:
-                spin_until(executor, stop)
-            else:
-                spinner = threading.Thread(target=spin_until, args=(executor, stop))
-                spinner.start()
-                run(nodes)
-        except (KeyboardInterrupt, ExternalShutdownException):
-            pass
-        except (ValueError, ParameterException) as err:
-            rclpy.logging.get_logger(name).error(f'cannot start: {err}')
-            code = 2
-        finally:
-            stop.set()
-            if spinner is not None:
-                # The spinning thread must end before its nodes and the context go away.
-                spinner.join()
-            # The order of rclpy.spin: detach the nodes from the executor before destroying them.
-            for node in nodes:
-                executor.remove_node(node)
-                node.destroy_node()
-            executor.shutdown()
-            shutdown()
-    return code
-
-
-def _print_usage(build: Callable[[], list[Node]], argv: list[str], name: str, summary: str) -> int:
-    quiet_discovery()
-    nodes: list[Node] = []
-    try:
-        # The nodes are built, not run: what they log while being built is not the answer.
-        init_without_signal_handlers([*argv, '--ros-args', '--log-level', 'fatal'])
-        ImageStage.describing = True
-        nodes = build()
-        for node in nodes:
-            declare_strict(node)
-        print(usage(name, nodes, summary))
-    except (ValueError, ParameterException) as err:
-        print(f'{name}: cannot start: {err}', file=sys.stderr)
-        return 2
-    finally:
-        for node in nodes:
-            node.destroy_node()
-        shutdown()
-    return 0
-
-
-def spin_node(factory: Callable[[], Node], args: list[str] | None, *, name: str, summary: str = '') -> int:
-    """Spin the one node ``factory`` makes; ``name`` is the executable's (see :func:`run_nodes`)."""
-    return run_nodes(lambda: [factory()], args, name=name, summary=summary)

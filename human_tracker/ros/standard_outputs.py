@@ -25,6 +25,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from geometry_msgs.msg import PoseWithCovariance, Quaternion, TransformStamped
 from hri_msgs.msg import IdsList, NormalizedRegionOfInterest2D
+from rclpy.duration import Duration
 from tf2_msgs.msg import TFMessage
 from vision_msgs.msg import (
     Detection2D,
@@ -233,10 +234,14 @@ class StandardOutputs:
         for name in set(self.region_pubs) - set(names):
             self.node.destroy_publisher(self.region_pubs.pop(name))
 
-    def clear(self, header: Any) -> None:
+    def clear(self, header: Any, settle: float = 0.0) -> None:
         """Nothing is tracked any more (the node is deactivated or shuts down): an empty ``tracked``
-        list under ``header``, once, and every face's roi publisher destroyed."""
+        list under ``header``, once, and every face's roi publisher destroyed. ``settle``: seconds
+        to wait for every subscriber to acknowledge the list (a node about to destroy its
+        publisher: unacknowledged, the list could die with it)."""
         self.frames_tracking.clear()
         self._keep_regions([])
         if self.tracked_pub is not None:
             self.tracked_pub.publish(IdsList(header=header))
+            if settle > 0:
+                self.tracked_pub.wait_for_all_acked(Duration(seconds=settle))

@@ -45,7 +45,8 @@ from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 
 from human_tracker.ros.common import RESULT_QOS
-from human_tracker.ros.stage import DEFERRED, ImageStage, spin_node, stamp_ns
+from human_tracker.ros.run import spin_node
+from human_tracker.ros.stage import DEFERRED, ImageStage, stamp_ns
 from human_tracker.ros.stamp_matching import FrameGaps, HeldFrame, MaskInputs
 from human_tracker.ros.tracker_outputs import StatusTopic, TrackerOutputs, estimate_values
 from human_tracker.ros.tracker_parameters import FILTER_PARAMETERS, TARGET_PARAMETERS, declare_settings, start_problem
@@ -53,12 +54,14 @@ from human_tracker.vision.cues.evidence import Evidence
 from human_tracker.vision.cues.resolution import same_frame
 from human_tracker.vision.cues.skin import has_colour
 from human_tracker.vision.filter.contour_filter import TrackerParameters, check_box_in_image
-from human_tracker.vision.frame_pipeline import FramePipeline, FrameResult, build_people
+from human_tracker.vision.frame_pipeline import FramePipeline, build_people
 from human_tracker.vision.people.persons import TrackedTarget, targets_line
 from human_tracker.vision.track.target import TargetParameters, TargetResult, parameters_for
 
 __all__ = ['FILTER_PARAMETERS', 'TARGET_PARAMETERS', 'TrackerNode', 'main']
 
+# Seconds a stopping node waits for its consumers to acknowledge its last, empty list of faces.
+LAST_WORD_WAIT = 2.0
 GREY_INPUT_TEXT = 'the image has no colour (a grey-level camera?): no skin can be found, so no hand is followed'
 
 
@@ -126,9 +129,13 @@ class TrackerNode(ImageStage):
         if subscribe_image:
             self.check_start(motion=motion != 'none', skin=settings.skin_input)
         self.status_topic.publish()
+        # In a pipeline the cues come with the frames, measured in process; only a depth topic is read.
+        inputs = f'mask inputs: {", ".join(self.mask_topics) or "none"}'
+        if not subscribe_image:
+            inputs = 'cues measured in process' + (', depth topic' if settings.depth_input else '')
         self.get_logger().info(
             f'configured: tracking {settings.target} with {filter_parameters.num_particles} particles, '
-            f'{self.template.num_points} points, mask inputs: {", ".join(self.mask_topics) or "none"}'
+            f'{self.template.num_points} points, {inputs}'
         )
 
     def _setting(self, name: str) -> Any:
@@ -207,9 +214,10 @@ class TrackerNode(ImageStage):
         self.inputs.hold(HeldFrame(stamp, time.monotonic(), header, evidence))
         return DEFERRED
 
-    def track(self, header: Any, evidence: Evidence, depth: np.ndarray | None = None) -> FrameResult:
+    def track(self, header: Any, evidence: Evidence, depth: np.ndarray | None = None) -> TargetResult:
         """Step 2 of the frame path (:meth:`FramePipeline.track`) on the frame's ``evidence``, its
-        masks checked against the frame, and publish what it found under ``header``."""
+        masks checked against the frame; publish what it found under ``header`` and return the
+        primary target's result."""
         image = evidence.image
         stamp = stamp_ns(header)
         interval, gap = self.gaps.next(stamp, self._setting('max_gap'))
@@ -242,7 +250,7 @@ class TrackerNode(ImageStage):
         self.outputs.publish(
             image, header, found.outcomes, primary, interval, depth, motion if motion is not None else skin
         )
-        return found
+        return primary.result
 
     def _start_on_boxes(self, size: tuple[int, ...]) -> None:
         """Start the primary target on a box asked for on ``init_roi``, or on ``init_box`` while
@@ -321,13 +329,14 @@ class TrackerNode(ImageStage):
     def destroy_node(self) -> None:
         if not self.describing:
             with contextlib.suppress(Exception):  # the context may already be shut down: nothing can be said
-                self.say_nothing_tracked()
+                self.say_nothing_tracked(settle=LAST_WORD_WAIT)
         super().destroy_node()
 
-    def say_nothing_tracked(self) -> None:
+    def say_nothing_tracked(self, settle: float = 0.0) -> None:
         """No frame will be tracked for a while (deactivated, shutting down): an empty list of
-        faces, now, for the consumers of the standard outputs."""
-        self.outputs.standard.clear(Header(stamp=self.get_clock().now().to_msg()))
+        faces, now, for the consumers of the standard outputs (``settle``: seconds to wait for
+        their acknowledgement, when the publisher is about to go)."""
+        self.outputs.standard.clear(Header(stamp=self.get_clock().now().to_msg()), settle)
 
     def diagnostics_state(self) -> tuple[str, dict[str, Any]]:
         extra: dict[str, Any] = {

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from human_tracker.ros.common import WORKING_WIDTH_DESCRIPTION, declare
-from human_tracker.ros.stage import ParameterSpec
+from human_tracker.ros.parameter_binding import ParameterSpec
 from human_tracker.vision.geometry.camera import FIT_RESIDUAL_GAIN
 from human_tracker.vision.people.persons import kinds_of
 

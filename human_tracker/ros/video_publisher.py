@@ -25,7 +25,7 @@ from sensor_msgs.msg import CameraInfo, Image
 from human_tracker.io.frames import FrameSourceError, open_frames
 from human_tracker.ros.common import RESULT_QOS, declare, node_status, publish_diagnostics
 from human_tracker.ros.image_conversion import array_to_image
-from human_tracker.ros.stage import run_nodes
+from human_tracker.ros.run import run_nodes
 from human_tracker.vision.geometry.camera import default_camera_matrix
 
 __all__ = ['VideoPublisher', 'camera_info_from_file', 'default_camera_info', 'main']

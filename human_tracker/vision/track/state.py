@@ -133,22 +133,13 @@ class Track:
         """
         state = state_from_box(box, self.template)
         self.filter.initialise(state / self._to_camera())
-        self.finest_scale = None
+        self._forget_target()
         self._fit_resolution(float(state[2]), 0.0)  # before the frame's size is known
         self.anchor = BoxAnchor(BoxRelation.of(box, state))  # until the contour settles on the next frame
-        self.frames_without_own_face = 0
-        self.disputing_face = None
-        self.usual_fit = UsualFit()
-        self.lost_at = None
         self.start_box = tuple(float(v) for v in box)  # type: ignore[assignment]
         self.started_from_box = True
         self.faces.drop_pending()  # its faces belong to the frame before the box
-        self.appearance = None
-        self.face_look.clear()
-        self.face_place.clear()
-        self.box_look.clear()
         self.status = transition(self.status, Event.START)
-        self.weak_frames = 0
 
     def decline(self) -> None:
         """Say the target the filter found may not be taken up: it still waits (never taken up)."""
@@ -162,15 +153,21 @@ class Track:
         """Forget the target; wait for motion or a box."""
         self.filter.reset()
         self.status = transition(self.status, Event.RESET)
-        self.weak_frames = self.steady_frames = self.frames_without_own_face = 0
-        self.disputing_face = None
-        self.usual_fit = UsualFit()
-        self.appearance = self.reported_state = self.start_box = self.finest_scale = None
+        self._forget_target()
+        self.steady_frames = 0
+        self.reported_state = self.start_box = None
         self.anchor = BoxAnchor()
         self.faces.reset()
         self.camera = CameraShake()
         self.started_from_box = False
         self.facing_votes.clear()
+
+    def _forget_target(self) -> None:
+        """Forget what was learnt of the target followed so far: its fit, where it was lost, its
+        looks and its resolution (a reset, or a new start from a box)."""
+        self.weak_frames = self.frames_without_own_face = 0
+        self.disputing_face = self.lost_at = self.appearance = self.finest_scale = None
+        self.usual_fit = UsualFit()
         self.face_look.clear()
         self.face_place.clear()
         self.box_look.clear()

@@ -1,0 +1,93 @@
+"""Nothing silent on a robot: a node wired to a topic nobody publishes says so, in its log and in
+``/diagnostics``, naming the topic and transport it listens on and the image topics the graph
+has, instead of reporting OK at 0 Hz; ``bag_play`` refuses what it cannot do and names it."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from conftest import REPO
+from ros_harness import collecting, environment
+from sensor_msgs.msg import CompressedImage
+
+from human_tracker.cli import main
+from human_tracker.ros.processes import NodeProcess
+
+
+def test_a_pipeline_that_receives_no_frame_says_where_it_listens_and_what_is_published(tmp_path: Path) -> None:
+    # The README's trap: a bag's compressed camera replayed into a pipeline listening raw.
+    args = ['--ros-args', '-p', 'no_input_warning:=2.0', '-r', 'image:=/camera/image_raw']
+    pipeline = NodeProcess('human_tracker.ros.pipeline', args, environment(), tmp_path / 'pipeline.log')
+    with collecting() as (collector, executor):
+        camera = collector.create_publisher(CompressedImage, '/camera/image_raw/compressed', 10)
+        try:
+            pipeline.start()
+            deadline = time.monotonic() + 90.0
+            status: dict[str, str] = {}
+            while time.monotonic() < deadline:
+                executor.spin_once(timeout_sec=0.1)
+                status = collector.diagnostics.get('/camera_subscriber', {})
+                if 'NO_INPUT' in status.get('warnings', ''):
+                    break
+            assert 'NO_INPUT' in status.get('warnings', ''), pipeline.output()
+            assert status['frames_received'] == '0' and status['ready'] == 'True'
+            said = status['warnings']
+            assert '/camera/image_raw (raw, 0 publishers)' in said, said
+            assert '/camera/image_raw/compressed (compressed)' in said and 'image_transport:=compressed' in said
+            # The masks and views of the package's own nodes are not offered as cameras.
+            assert '/foreground' not in said
+        finally:
+            pipeline.stop()
+            collector.destroy_publisher(camera)
+    log = pipeline.output()
+    assert 'no frame for' in log and '/camera/image_raw/compressed (compressed)' in log
+
+
+def _bag_play(*arguments: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, '-m', 'human_tracker.ros.bag_play', *arguments],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env=environment(),
+    )
+
+
+def test_bag_play_refuses_a_remap_of_a_topic_the_bag_lacks_and_lists_its_topics() -> None:
+    # The README's replay names the compressed topic; the raw one is not in the bag.
+    played = _bag_play(str(REPO / 'bags' / 'head_basic'), '--remap', '/camera/image_raw:=/image')
+    assert played.returncode == 1, played.stderr
+    assert '--remap: /camera/image_raw not in' in played.stderr
+    assert '/camera/image_raw/compressed' in played.stderr and '/camera/camera_info' in played.stderr
+
+
+def test_bag_play_on_an_empty_folder_names_what_is_missing(tmp_path: Path) -> None:
+    played = _bag_play(str(tmp_path))
+    assert played.returncode == 1
+    assert 'no metadata.yaml beside it and not one .mcap file' in played.stderr
+    assert "Expected metadata file '" not in played.stderr
+
+
+def test_the_graph_can_be_looked_at_from_the_virtualenv(tmp_path: Path, capsys) -> None:
+    """``topics``, ``echo`` and ``call``: what ros2cli does on a robot."""
+    node = NodeProcess('human_tracker.ros.background_node', [], environment(), tmp_path / 'background.log')
+    with node:
+        node.start()
+        deadline = time.monotonic() + 60.0
+        while 'ready' not in node.output() and time.monotonic() < deadline:
+            time.sleep(0.2)
+        assert main(['topics']) == 0
+        listed = capsys.readouterr().out
+        line = next((line for line in listed.splitlines() if line.startswith('/diagnostics ')), listed)
+        assert re.fullmatch(r'/diagnostics \[diagnostic_msgs/msg/DiagnosticArray\] [1-9]\d* publishers, .*Hz', line)
+        assert not line.endswith(' 0.0 Hz'), line
+        assert main(['echo', '/diagnostics']) == 0
+        assert "name: '/background_node'" in capsys.readouterr().out
+        assert main(['call', '/background_node/reset']) == 0
+        assert "success: True, message: 'background model reset" in capsys.readouterr().out
+        assert main(['echo', '/nope', '--timeout', '1']) == 2
+        assert 'no topic /nope on the graph' in capsys.readouterr().err

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -13,6 +15,17 @@ from rclpy.executors import SingleThreadedExecutor
 
 from human_tracker.ros.collector import PoseCollector
 from human_tracker.ros.processes import NodeProcess, ros_environment
+
+
+def run_bag_play(*arguments: str) -> subprocess.CompletedProcess:
+    """``bag_play`` with ``arguments`` in this test process's DDS domain, run to its end."""
+    return subprocess.run(
+        [sys.executable, '-m', 'human_tracker.ros.bag_play', *arguments],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env=environment(),
+    )
 
 
 def environment() -> dict[str, str]:

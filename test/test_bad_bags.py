@@ -10,7 +10,7 @@ import sys
 
 import pytest
 from conftest import REPO
-from ros_harness import environment
+from ros_harness import run_bag_play
 from rosbags.rosbag2 import Writer
 
 from human_tracker.io.bags import TYPESTORE, camera_frame_count, read_frames
@@ -80,14 +80,7 @@ def test_offline_command(kind: str, tmp_path, head_bag) -> None:
 
 @pytest.mark.parametrize('kind', KINDS)
 def test_bag_play(kind: str, tmp_path, head_bag) -> None:
-    bag = _make(kind, tmp_path, head_bag)
-    result = subprocess.run(
-        [sys.executable, '-m', 'human_tracker.ros.bag_play', str(bag), '--rate', '50'],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        env=environment(),
-    )
+    result = run_bag_play(str(_make(kind, tmp_path, head_bag)), '--rate', '50')
     assert result.returncode == 1, result.stderr
     assert 'bag_play: error:' in result.stderr and 'Traceback' not in result.stderr
 
@@ -101,13 +94,7 @@ def test_a_recording_stopped_hard_is_tracked_and_replayed(kind: str, tmp_path, h
     summary = json.loads((tmp_path / 'out' / 'summary.json').read_text())
     assert summary['frames'] >= (30 if kind == 'truncated' else 120)
     assert ('cut short' in ' '.join(summary['warnings'])) == (kind == 'truncated')
-    played = subprocess.run(
-        [sys.executable, '-m', 'human_tracker.ros.bag_play', str(bag), '--rate', '50'],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        env=environment(),
-    )
+    played = run_bag_play(str(bag), '--rate', '50')
     assert played.returncode == 0, played.stderr
     assert ('cut short' in played.stderr) == (kind == 'truncated')
 

@@ -5,13 +5,11 @@ has, instead of reporting OK at 0 Hz; ``bag_play`` refuses what it cannot do and
 from __future__ import annotations
 
 import re
-import subprocess
-import sys
 import time
 from pathlib import Path
 
 from conftest import REPO
-from ros_harness import collecting, environment
+from ros_harness import collecting, environment, run_bag_play
 from sensor_msgs.msg import CompressedImage
 
 from human_tracker.cli import main
@@ -47,26 +45,16 @@ def test_a_pipeline_that_receives_no_frame_says_where_it_listens_and_what_is_pub
     assert 'no frame for' in log and '/camera/image_raw/compressed (compressed)' in log
 
 
-def _bag_play(*arguments: str) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, '-m', 'human_tracker.ros.bag_play', *arguments],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        env=environment(),
-    )
-
-
 def test_bag_play_refuses_a_remap_of_a_topic_the_bag_lacks_and_lists_its_topics() -> None:
     # The README's replay names the compressed topic; the raw one is not in the bag.
-    played = _bag_play(str(REPO / 'bags' / 'head_basic'), '--remap', '/camera/image_raw:=/image')
+    played = run_bag_play(str(REPO / 'bags' / 'head_basic'), '--remap', '/camera/image_raw:=/image')
     assert played.returncode == 1, played.stderr
     assert '--remap: /camera/image_raw not in' in played.stderr
     assert '/camera/image_raw/compressed' in played.stderr and '/camera/camera_info' in played.stderr
 
 
 def test_bag_play_on_an_empty_folder_names_what_is_missing(tmp_path: Path) -> None:
-    played = _bag_play(str(tmp_path))
+    played = run_bag_play(str(tmp_path))
     assert played.returncode == 1
     assert 'no metadata.yaml beside it and not one .mcap file' in played.stderr
     assert "Expected metadata file '" not in played.stderr

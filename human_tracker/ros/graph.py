@@ -23,7 +23,7 @@ from human_tracker.ros.bag_play import message_class
 __all__ = ['call', 'echo', 'message_text', 'topics']
 
 # The most seconds a new participant waits for the graph's discovery to settle before it looks.
-DISCOVERY_WAIT = 5.0
+DISCOVERY_WAIT = 10.0
 
 
 # Longer arrays (image pixels, covariances of many particles) are shown by their length only.
@@ -62,12 +62,14 @@ def _graph_node() -> Iterator[tuple[Node, SingleThreadedExecutor]]:
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
     try:
-        # Discovery takes its time on a busy machine: look once the graph stops changing.
+        # Discovery takes its time on a busy machine: look once another node is known and the
+        # graph has stopped changing for a second.
         deadline, seen, steady = time.monotonic() + DISCOVERY_WAIT, None, 0
         while time.monotonic() < deadline and steady < 4:
             _spin_for(executor, 0.25)
-            now = sorted(node.get_topic_names_and_types())
-            steady, seen = (steady + 1 if now == seen else 0), now
+            now = (sorted(node.get_node_names_and_namespaces()), sorted(node.get_topic_names_and_types()))
+            others = len(now[0]) > 1
+            steady, seen = (steady + 1 if others and now == seen else 0), now
         yield node, executor
     finally:
         executor.shutdown()

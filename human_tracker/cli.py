@@ -123,6 +123,14 @@ def _track(options: argparse.Namespace) -> int:
     return 0
 
 
+def _has_frames(folder: Path) -> bool:
+    """Whether ``folder`` holds a bag or images (in it or in ``img/``), not just a ground truth."""
+    from human_tracker.io.frames import IMAGE_SUFFIXES
+
+    files = [*folder.iterdir(), *((folder / 'img').iterdir() if (folder / 'img').is_dir() else [])]
+    return any(f.suffix.lower() in (*IMAGE_SUFFIXES, '.mcap', '.db3', '.yaml') for f in files)
+
+
 def _eval(options: argparse.Namespace) -> int:
     from human_tracker.evaluation.identity import identity_scores, one_track
     from human_tracker.evaluation.metrics import summarise
@@ -131,6 +139,8 @@ def _eval(options: argparse.Namespace) -> int:
 
     tracks = read_tracks(options.poses)
     truth_path = Path(options.truth)
+    if truth_path.is_dir() and (truth_path / 'groundtruth.txt').is_file() and not _has_frames(truth_path):
+        truth_path = truth_path / 'groundtruth.txt'  # a sequence's folder holding only its ground truth
     truth = (
         read_groundtruth(truth_path)
         if truth_path.is_file() and truth_path.suffix == '.txt'

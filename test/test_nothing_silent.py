@@ -4,6 +4,7 @@ has, instead of reporting OK at 0 Hz; ``bag_play`` refuses what it cannot do and
 
 from __future__ import annotations
 
+import csv
 import re
 import time
 from pathlib import Path
@@ -13,6 +14,8 @@ from ros_harness import collecting, environment, run_bag_play
 from sensor_msgs.msg import CompressedImage
 
 from human_tracker.cli import main
+from human_tracker.io.poses import POSE_COLUMNS
+from human_tracker.io.sequences import write_groundtruth
 from human_tracker.ros.processes import NodeProcess
 
 
@@ -79,3 +82,17 @@ def test_the_graph_can_be_looked_at_from_the_virtualenv(tmp_path: Path, capsys) 
         assert "success: True, message: 'background model reset" in capsys.readouterr().out
         assert main(['echo', '/nope', '--timeout', '1']) == 2
         assert 'no topic /nope on the graph' in capsys.readouterr().err
+
+
+def test_eval_scores_against_a_sequence_folder_that_holds_only_its_ground_truth(tmp_path: Path, capsys) -> None:
+    truth = [(10.0, 20.0, 30.0, 40.0), None, (12.0, 20.0, 30.0, 40.0)]
+    write_groundtruth(tmp_path / 'groundtruth.txt', truth)
+    poses = tmp_path / 'poses.csv'
+    with poses.open('w', newline='') as handle:
+        table = csv.DictWriter(handle, POSE_COLUMNS)
+        table.writeheader()
+        for index, box in enumerate(truth):
+            cells = dict(zip(('box_x', 'box_y', 'box_w', 'box_h'), box or ('',) * 4, strict=True))
+            table.writerow({'frame': index, 'status': 'TRACKING' if box else 'LOST', 'kind': 'head', **cells})
+    assert main(['eval', str(poses), str(tmp_path)]) == 0, capsys.readouterr().err
+    assert '"precision_20px": 1.0' in capsys.readouterr().out

@@ -5,6 +5,7 @@ has, instead of reporting OK at 0 Hz; ``bag_play`` refuses what it cannot do and
 from __future__ import annotations
 
 import csv
+import os
 import re
 import time
 from pathlib import Path
@@ -14,6 +15,7 @@ from ros_harness import collecting, environment, run_bag_play
 from sensor_msgs.msg import CompressedImage
 
 from human_tracker.cli import main
+from human_tracker.demo import run_demo
 from human_tracker.io.poses import POSE_COLUMNS
 from human_tracker.io.sequences import write_groundtruth
 from human_tracker.ros.processes import NodeProcess
@@ -46,6 +48,11 @@ def test_a_pipeline_that_receives_no_frame_says_where_it_listens_and_what_is_pub
             collector.destroy_publisher(camera)
     log = pipeline.output()
     assert 'no frame for' in log and '/camera/image_raw/compressed (compressed)' in log
+    # In the order things happen, nothing false for the layout: configured, then active.
+    tracker = [line for line in log.splitlines() if '[tracker_node]' in line]
+    said = [next(i for i, line in enumerate(tracker) if word in line) for word in ('configured:', ': active')]
+    assert said == sorted(said) and 'cues measured in process' in tracker[said[0]], tracker
+    assert 'mask inputs' not in log
 
 
 def test_bag_play_refuses_a_remap_of_a_topic_the_bag_lacks_and_lists_its_topics() -> None:
@@ -96,3 +103,13 @@ def test_eval_scores_against_a_sequence_folder_that_holds_only_its_ground_truth(
             table.writerow({'frame': index, 'status': 'TRACKING' if box else 'LOST', 'kind': 'head', **cells})
     assert main(['eval', str(poses), str(tmp_path)]) == 0, capsys.readouterr().err
     assert '"precision_20px": 1.0' in capsys.readouterr().out
+
+
+def test_the_demo_says_how_it_started_and_measures_processing_and_latency(tmp_path: Path) -> None:
+    """No 'fps' counted from the replay's start (warm-up included): the nodes' own processing
+    time per frame and the latency from each frame to its pose."""
+    summary = run_demo(REPO / 'bags' / 'head_basic', tmp_path / 'demo', domain_id=int(os.environ['ROS_DOMAIN_ID']))
+    assert 'fps' not in summary and summary['start'].startswith("from the first frame's ground-truth box")
+    assert set(summary['processing_ms_per_frame']) == {'background_node', 'tracker_node'}
+    assert all(ms > 0 for ms in summary['processing_ms_per_frame'].values()) and summary['processing_fps'] > 0
+    assert 0 < summary['latency_ms_median'] <= summary['latency_ms_p95']

@@ -8,12 +8,15 @@ import logging
 import shutil
 import sys
 from pathlib import Path
+from typing import TypeVar
 
 from human_tracker.io.bags import BagError
 from human_tracker.io.frames import FrameSourceError
 from human_tracker.io.sequences import SequenceError, sequence_name
 
 __all__ = ['main']
+
+_T = TypeVar('_T')
 
 _MERGE_DISTANCE_HELP = (
     'skin cells: adjacent candidate cells join one region only when their mean (I2, I3) lie within D '
@@ -71,6 +74,11 @@ _NODE_PARAMETER_OPTIONS = {
 }
 
 
+def _given(value: _T | None, default: _T) -> _T:
+    """An option's value, or ``default`` where it was left out (None)."""
+    return default if value is None else value
+
+
 def _track(options: argparse.Namespace) -> int:
     from human_tracker.offline import TrackOptions, track_sequence
     from human_tracker.threads import default_threads, use_threads
@@ -99,17 +107,20 @@ def _track(options: argparse.Namespace) -> int:
         shown['init'] = options.init or configured.init_box
         settings = TrackOptions(target=configured.target, pipeline=configured.pipeline, **shown)
     else:
+        # The options left out take their defaults; one given (a 0 too) is checked as given.
         settings = TrackOptions(
             target=options.target,
-            hands=1 if options.hands is None else options.hands,
-            max_people=options.max_people or 1,
-            cue=options.cue or 'background',
+            hands=_given(options.hands, 1),
+            max_people=_given(options.max_people, 1),
+            cue=_given(options.cue, 'background'),
             skin=options.skin,
             skin_parameters=SkinParameters(
-                colour_blur=options.colour_blur or 0.0, merge_distance=options.merge_distance or 0.0
+                colour_blur=_given(options.colour_blur, 0.0), merge_distance=_given(options.merge_distance, 0.0)
             ),
             template_file=options.template or '',
-            filter_parameters=TrackerParameters(num_particles=options.particles or 500, seed=options.seed or 0),
+            filter_parameters=TrackerParameters(
+                num_particles=_given(options.particles, 500), seed=_given(options.seed, 0)
+            ),
             working_width=options.working_width,
             **shown,
         )

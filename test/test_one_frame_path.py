@@ -132,3 +132,10 @@ def test_a_parameter_set_for_track_reaches_its_frame_path() -> None:
     assert pipeline.people.trackers[0].filter_parameters.num_particles == 123
     assert pipeline.stages.motion_cue == 'flow' and pipeline.stages.motion.parameters.min_magnitude == 0.7
     assert pipeline.stages.adapts_skin and pipeline.stages.skin.adaptation_rate == 0.05
+
+
+@pytest.mark.parametrize('option', [['--particles', '0'], ['--target', 'person', '--max-people', '0']])
+def test_track_refuses_a_zero_given_as_an_option(option: list[str], tmp_path: Path, capsys) -> None:
+    """An option given is checked as given, not replaced by its default (0 is not 'left out')."""
+    assert main(['track', str(REPO / 'bags' / 'head_basic'), '--out', str(tmp_path), *option]) == 2
+    assert 'must be >= 1, ' in capsys.readouterr().err

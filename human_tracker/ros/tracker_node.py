@@ -18,7 +18,7 @@ motion or a box.
 With ``target: person`` it follows a head and ``hands`` hands of up to ``max_people`` people
 (:mod:`~human_tracker.vision.people.persons`): the topics above are the primary target's, on each
 frame the head ``primary_id`` names while it is followed, else the followed head nearest the
-image's centre (:func:`~human_tracker.vision.people.persons.primary_target`), and
+image's centre (:func:`~human_tracker.vision.track.outcomes.primary_target`), and
 ``targets`` (nav_msgs/Odometry, one message per tracked target per frame) gives every target:
 ``child_frame_id`` ``person_<person>/<kind>_<id>``, the pose and its covariance in the image's
 optical frame (``header``); the twist is not estimated per target (unknown covariance).

@@ -1,5 +1,4 @@
-"""The cue stages, and the one way the targets are assembled: what the offline command and the
-nodes share.
+"""The cue stages: what turns a camera frame into its evidence, in every layout.
 
 Each stage turns a camera frame into one cue at its working width: the motion mask (background
 subtraction, §2.4.1: :func:`foreground`; optical flow, §2.4.2: :func:`flow_motion`), the skin

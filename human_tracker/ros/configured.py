@@ -10,7 +10,6 @@ offline run is the robot's tracker to the last parameter.
 
 from __future__ import annotations
 
-import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,7 +18,7 @@ from rclpy.context import Context
 from rclpy.signals import SignalHandlerOptions
 
 from human_tracker.ros.pipeline import build_pipeline
-from human_tracker.ros.startup import StartError, check_configuration, init_rclpy
+from human_tracker.ros.startup import StartError, check_configuration, init_rclpy, quiet_discovery
 from human_tracker.ros.tracker_node import TrackerNode
 from human_tracker.vision.frame_pipeline import FramePipeline
 
@@ -69,27 +68,22 @@ def configured_pipeline(parameter_files: Sequence[str | Path], overrides: Sequen
         argv += ['--params-file', str(path)]
     argv += override_arguments(overrides)
     context = Context()
-    discovery = os.environ.get('ROS_AUTOMATIC_DISCOVERY_RANGE')
-    # The nodes are built, never spun: they discover no one and no one discovers them.
-    os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'OFF'
     nodes = []
-    try:
-        init_rclpy(argv, context=context, signal_handler_options=SignalHandlerOptions.NO)
-        nodes = build_pipeline(context=context)
-        check_configuration(nodes, argv)
-        tracker = next(node for node in nodes if isinstance(node, TrackerNode))
-        return Configured(tracker.frame_pipeline, tracker.settings.target, tracker.settings.init_box)
-    except StartError as err:
-        raise ValueError(str(err)) from err
-    except Exception as err:  # rclpy's parameter errors: a value out of range or of the wrong type
-        if type(err).__module__.startswith('rclpy'):
+    # The nodes are built, never spun: they discover no one and no one discovers them.
+    with quiet_discovery():
+        try:
+            init_rclpy(argv, context=context, signal_handler_options=SignalHandlerOptions.NO)
+            nodes = build_pipeline(context=context)
+            check_configuration(nodes, argv)
+            tracker = next(node for node in nodes if isinstance(node, TrackerNode))
+            return Configured(tracker.frame_pipeline, tracker.settings.target, tracker.settings.init_box)
+        except StartError as err:
             raise ValueError(str(err)) from err
-        raise
-    finally:
-        for node in nodes:
-            node.destroy_node()
-        context.try_shutdown()
-        if discovery is None:
-            os.environ.pop('ROS_AUTOMATIC_DISCOVERY_RANGE', None)
-        else:
-            os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = discovery
+        except Exception as err:  # rclpy's parameter errors: a value out of range or of the wrong type
+            if type(err).__module__.startswith('rclpy'):
+                raise ValueError(str(err)) from err
+            raise
+        finally:
+            for node in nodes:
+                node.destroy_node()
+            context.try_shutdown()

@@ -96,24 +96,24 @@ def run_nodes(
 
 
 def _print_usage(build: Callable[[], list[Node]], argv: list[str], name: str, summary: str) -> int:
-    quiet_discovery()
-    nodes: list[Node] = []
-    try:
-        # The nodes are built, not run: what they log while being built is not the answer.
-        init_without_signal_handlers([*argv, '--ros-args', '--log-level', 'fatal'])
-        ImageStage.describing = True
-        nodes = build()
-        for node in nodes:
-            declare_strict(node)
-        print(usage(name, nodes, summary))
-    except (ValueError, ParameterException) as err:
-        print(f'{name}: cannot start: {err}', file=sys.stderr)
-        return 2
-    finally:
-        for node in nodes:
-            node.destroy_node()
-        ImageStage.describing = False
-        shutdown()
+    with quiet_discovery():
+        nodes: list[Node] = []
+        try:
+            # The nodes are built, not run: what they log while being built is not the answer.
+            init_without_signal_handlers([*argv, '--ros-args', '--log-level', 'fatal'])
+            ImageStage.describing = True
+            nodes = build()
+            for node in nodes:
+                declare_strict(node)
+            print(usage(name, nodes, summary))
+        except (ValueError, ParameterException) as err:
+            print(f'{name}: cannot start: {err}', file=sys.stderr)
+            return 2
+        finally:
+            for node in nodes:
+                node.destroy_node()
+            ImageStage.describing = False
+            shutdown()
     return 0
 
 

@@ -14,7 +14,8 @@ import difflib
 import fnmatch
 import os
 import re
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -57,6 +58,7 @@ PACKAGE_NODES = frozenset(
 section for a node that runs in another process is not a mistake."""
 
 # Parameters rclpy declares or reads by itself on some nodes.
+_DISCOVERY_RANGE = 'ROS_AUTOMATIC_DISCOVERY_RANGE'
 _RCLPY_PARAMETERS = ('use_sim_time', 'start_type_description_service')
 _RCLPY_PREFIXES = ('qos_overrides.',)
 
@@ -315,6 +317,17 @@ def usage(program: str, nodes: Sequence[Node], summary: str = '') -> str:
     return '\n'.join(lines)
 
 
-def quiet_discovery() -> None:
-    """Discover no other participant and be discovered by none (the ``--help`` path builds nodes)."""
-    os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'OFF'
+@contextmanager
+def quiet_discovery() -> Iterator[None]:
+    """While inside, nodes created discover no other participant and are discovered by none
+    (``--help`` and ``track --params-file`` build nodes that never run); the setting before is
+    put back on exit."""
+    before = os.environ.get(_DISCOVERY_RANGE)
+    os.environ[_DISCOVERY_RANGE] = 'OFF'
+    try:
+        yield
+    finally:
+        if before is None:
+            os.environ.pop(_DISCOVERY_RANGE, None)
+        else:
+            os.environ[_DISCOVERY_RANGE] = before

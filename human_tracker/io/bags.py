@@ -323,15 +323,9 @@ class CutMcapReader(BareMcapReader):
             if bio.read(len(_MCAP_MAGIC)) != _MCAP_MAGIC or bio.read(1) != b'\x01':
                 raise ReaderError(f'{storage.path} is not an MCAP file')
             header = int.from_bytes(bio.read(8), 'little')
-            storage.data_start = position = bio.tell() + header
+            storage.data_start = bio.tell() + header
             size = bio.seek(0, 2)
-            opcode = 0
-            while position + 9 <= size:
-                bio.seek(position)
-                opcode, length = bio.read(1)[0], int.from_bytes(bio.read(8), 'little')
-                if opcode == _MCAP_DATA_END or position + 9 + length > size:
-                    break
-                position += 9 + length
+            position, opcode = _complete_records(bio, storage.data_start, size, stop=_MCAP_DATA_END)
             storage.data_end = position
             storage.meta_scan()
             records = _uncompressed_chunk_records(bio, position + 9, size) if opcode == _MCAP_CHUNK else b''
@@ -399,15 +393,23 @@ def _uncompressed_chunk_records(bio: BinaryIO, start: int, size: int) -> bytes:
     bio.seek(start + 28)  # message start and end times, uncompressed size, CRC
     if bio.read(int.from_bytes(bio.read(4), 'little')):  # the compression's name
         return b''
-    position = end = bio.seek(8, 1)  # past the records' length
+    first = bio.seek(8, 1)  # past the records' length
+    end, _ = _complete_records(bio, first, size)
+    bio.seek(first)
+    return bio.read(end - first)
+
+
+def _complete_records(bio: BinaryIO, position: int, size: int, stop: int | None = None) -> tuple[int, int]:
+    """Where the MCAP records from ``position`` stop being complete within ``size`` bytes (each
+    is an opcode, a length and that many bytes), or the record of opcode ``stop`` starts; and
+    the opcode of the record found there (0: none, the bytes ended between records)."""
     while position + 9 <= size:
         bio.seek(position)
-        length = int.from_bytes(bio.read(9)[1:], 'little')
-        if position + 9 + length > size:
-            break
+        opcode, length = bio.read(1)[0], int.from_bytes(bio.read(8), 'little')
+        if opcode == stop or position + 9 + length > size:
+            return position, opcode
         position += 9 + length
-    bio.seek(end)
-    return bio.read(position - end)
+    return position, 0
 
 
 def _cut_short(path: Path) -> bool:

@@ -74,7 +74,6 @@ def test_the_graph_can_be_looked_at_from_the_virtualenv(tmp_path: Path, capsys) 
     """``topics``, ``echo`` and ``call``: what ros2cli does on a robot."""
     node = NodeProcess('human_tracker.ros.background_node', [], environment(), tmp_path / 'background.log')
     with node:
-        node.start()
         deadline = time.monotonic() + 60.0
         while 'ready' not in node.output() and time.monotonic() < deadline:
             time.sleep(0.2)

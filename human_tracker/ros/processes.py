@@ -66,7 +66,10 @@ class NodeProcess:
         self.process: subprocess.Popen[bytes] | None = None
 
     def start(self) -> NodeProcess:
-        """Start the process."""
+        """Start the process; a second start while it runs is refused (the first would run on,
+        unstopped, on the same ROS domain)."""
+        if self.process is not None and self.process.poll() is None:
+            raise RuntimeError(f'{self.command[2]} is already running (pid {self.process.pid})')
         self.log_path.parent.mkdir(parents=True, exist_ok=True)
         log = self.log_path.open('wb')
         self.process = subprocess.Popen(self.command, env=self.env, stdout=log, stderr=subprocess.STDOUT)

@@ -15,7 +15,7 @@ export PYTHONHASHSEED := 0
 # a hundred modules on every start (0.2-0.3 s of CPU each).
 unexport PYTHONDONTWRITEBYTECODE
 
-.PHONY: demo test test-robot-stack bench soak lint bags docs clean venv regression
+.PHONY: demo test test-robot-stack bench soak lint bags docs clean venv regression params
 
 venv: $(STAMP)
 
@@ -62,6 +62,10 @@ test-robot-stack: $(ROBOT)/.installed-stamp
 	$(ROBOT)/bin/python -c "import cv2, numpy; print('robot stack: numpy', numpy.__version__, 'OpenCV', cv2.__version__)"
 	NUMBA_CACHE_DIR=$(CURDIR)/$(ROBOT)/numba-cache $(ROBOT)/bin/python -m pytest -q $(IN_PARALLEL) test --ignore=test/test_package_build.py
 	NUMBA_CACHE_DIR=$(CURDIR)/$(ROBOT)/numba-cache $(ROBOT)/bin/python -m pytest -q -m timed test --ignore=test/test_package_build.py
+
+# config/human_tracker.yaml and docs/parameters.md's tables, made from the nodes' declarations.
+params: $(STAMP)
+	$(PY) -m human_tracker.ros.parameter_reference
 
 lint: $(STAMP)
 	$(PY) -m ruff check human_tracker test launch setup.py tools

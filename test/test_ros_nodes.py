@@ -522,11 +522,9 @@ def _get(client: AsyncParameterClient, node: Node, name: str) -> object:
 def test_params_file_loads_and_gains_change_at_run_time(tmp_path) -> None:
     """The shipped YAML with one gain edited, loaded with --params-file; then changed live."""
     params = tmp_path / 'params.yaml'
-    params.write_text(
-        (REPO / 'config' / 'human_tracker.yaml')
-        .read_text()
-        .replace('likelihood_gain: 0.01 ', 'likelihood_gain: 0.013 ')
-    )
+    shipped = (REPO / 'config' / 'human_tracker.yaml').read_text()
+    assert shipped.count('    likelihood_gain: 0.01\n') == 1
+    params.write_text(shipped.replace('    likelihood_gain: 0.01\n', '    likelihood_gain: 0.013\n'))
     tracker = NodeProcess(
         'human_tracker.ros.tracker_node',
         ['--ros-args', '--params-file', str(params)],

@@ -16,45 +16,13 @@ from std_srvs.srv import Trigger
 
 from human_tracker.ros.common import RESULT_QOS, declare_working_width
 from human_tracker.ros.image_conversion import array_to_image
-from human_tracker.ros.parameter_binding import ParameterSpec
 from human_tracker.ros.run import spin_node
 from human_tracker.ros.stage import ImageStage
 from human_tracker.vision.cues.background import BackgroundModel, BackgroundParameters
 from human_tracker.vision.cues.evidence import Evidence
 from human_tracker.vision.cues.stages import CueStages
 
-__all__ = ['BACKGROUND_PARAMETERS', 'BackgroundNode', 'main']
-
-BACKGROUND_PARAMETERS = (
-    ParameterSpec(
-        'learning_rate', 'α: rate of the first-order filter of m and σ² on background pixels, per frame.', 0.0, 1.0
-    ),
-    ParameterSpec(
-        'foreground_learning_rate',
-        'Rate at which pixels judged target are learnt; 0: never (the paper), > 0: ghosts fade.',
-        0.0,
-        1.0,
-    ),
-    ParameterSpec('threshold', 'λ: likelihood-ratio threshold background / target (the paper uses 1).', 1e-6, 1e6),
-    ParameterSpec('intensity_levels', 'n: intensity levels of the uniform target density 1/n.', 2, 65536),
-    ParameterSpec('initial_variance', 'σ² of every pixel when the model starts, grey levels².', 1e-3, 1e5),
-    ParameterSpec(
-        'min_variance', 'Lower bound of σ², grey levels² (keeps the test from calling every pixel target).', 1e-3, 1e5
-    ),
-    ParameterSpec(
-        'max_variance',
-        'Upper bound of σ², grey levels² (keeps the test from calling every pixel background).',
-        1e-3,
-        1e5,
-    ),
-    ParameterSpec('opening_radius', 'Morphological opening radius, pixels (removes isolated detections).', 0, 50),
-    ParameterSpec('closing_radius', 'Morphological closing radius, pixels (fills holes).', 0, 50),
-    ParameterSpec('compensate_camera', "Carry the reference frame with the camera's own image motion."),
-    ParameterSpec(
-        'flooded_fraction', 'Share of the frame above which a mask is flooded (the model no longer fits).', 1e-3, 1.0
-    ),
-    ParameterSpec('flooded_frames', 'Flooded masks in a row after which the model restarts; 0: never.', 5, 1000),
-)
+__all__ = ['BackgroundNode', 'main']
 
 
 class BackgroundNode(ImageStage):
@@ -62,7 +30,7 @@ class BackgroundNode(ImageStage):
 
     def __init__(self, *, subscribe_image: bool = True, **kwargs: Any) -> None:
         super().__init__('background_node', subscribe_image=subscribe_image, **kwargs)
-        parameters = self.bind_parameters(BackgroundParameters(), BACKGROUND_PARAMETERS, self._apply)
+        parameters = self.bind_parameters(BackgroundParameters(), self._apply)
         self.working_width = declare_working_width(self)
         # Its stage alone; in a pipeline, the pipeline's stages (shared with the tracker's frame path).
         self.stages = CueStages(motion=BackgroundModel(parameters), motion_width=self.working_width)

@@ -23,6 +23,8 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rclpy.signals import SignalHandlerOptions
 
 from human_tracker.ros.startup import init_rclpy
+from human_tracker.vision.checks import declared_fields
+from human_tracker.vision.track.parameters import FrameParameters
 
 __all__ = [
     'declare',
@@ -121,10 +123,8 @@ def declare(
     return node.declare_parameter(name, default, descriptor).value
 
 
-WORKING_WIDTH_DESCRIPTION = (
-    'Frames wider than this many pixels are reduced to it before processing (area averaging); masks are '
-    'published at that size. 0: full size. The same value in every stage spares the tracker resizing masks.'
-)
+# Every stage reduces its frames as the tracker does: one meaning, the tracker's field's.
+WORKING_WIDTH_DESCRIPTION = dict(declared_fields(FrameParameters))['working_width'].description
 
 
 def declare_working_width(node: Node) -> int:
@@ -142,7 +142,7 @@ def image_qos(node: Node) -> QoSProfile:
         node,
         'qos_reliability',
         'best_effort',
-        'Image subscription reliability: best_effort or reliable.',
+        'Image subscription reliability: best_effort or reliable (with a deeper qos_depth: every frame of a replay).',
         read_only=True,
     )
     depth = declare(

@@ -19,28 +19,13 @@ from sensor_msgs.msg import Image
 
 from human_tracker.ros.common import RESULT_QOS, declare, declare_working_width
 from human_tracker.ros.image_conversion import array_to_image
-from human_tracker.ros.parameter_binding import ParameterSpec
 from human_tracker.ros.run import spin_node
 from human_tracker.ros.stage import ImageStage, stamp_ns
 from human_tracker.vision.cues.evidence import Evidence
 from human_tracker.vision.cues.optical_flow import FlowParameters, OpticalFlow
 from human_tracker.vision.cues.stages import CueStages, Frame
 
-__all__ = ['FLOW_PARAMETERS', 'OpticalFlowNode', 'main']
-
-FLOW_PARAMETERS = (
-    ParameterSpec('method', 'Dense flow method: dis_patches, dis_ultrafast, dis_fast, dis_medium or farneback.'),
-    ParameterSpec('min_magnitude', 'Flow below this (pixels/frame) counts as zero.', 0.0, 100.0),
-    ParameterSpec(
-        'min_texture', 'Texture energy below which flow is not trusted (aperture problem); 0: trust all.', 0.0, 1e9
-    ),
-    ParameterSpec('median_size', 'Median filter aperture on the motion mask, pixels.', 0, 31),
-    ParameterSpec('opening_radius', 'Opening radius on the motion mask, pixels.', 0, 50),
-    ParameterSpec('closing_radius', 'Closing radius on the motion mask, pixels.', 0, 50),
-    ParameterSpec(
-        'scale', 'Image scale the flow is computed at (1: full size; smaller is faster and less accurate).', 0.05, 1.0
-    ),
-)
+__all__ = ['OpticalFlowNode', 'main']
 
 
 class OpticalFlowNode(ImageStage):
@@ -48,7 +33,7 @@ class OpticalFlowNode(ImageStage):
 
     def __init__(self, *, subscribe_image: bool = True, **kwargs: Any) -> None:
         super().__init__('optical_flow_node', subscribe_image=subscribe_image, **kwargs)
-        parameters = self.bind_parameters(FlowParameters(), FLOW_PARAMETERS, self._apply)
+        parameters = self.bind_parameters(FlowParameters(), self._apply)
         self.working_width = declare_working_width(self)
         # Its stage alone; in a pipeline, the pipeline's stages (shared with the tracker's frame path).
         self.stages = CueStages(motion=OpticalFlow(parameters), motion_width=self.working_width)

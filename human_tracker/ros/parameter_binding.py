@@ -1,16 +1,16 @@
 """Algorithm parameter dataclasses bound to a node's declared ROS parameters.
 
-Each field named by a :class:`ParameterSpec` is declared with its description and range; a
-run-time change builds a new dataclass, calls its ``validate()`` and, if it passes, hands it
-to the algorithm; otherwise the change is refused with the validation message.
+Each field declared with :func:`~human_tracker.vision.checks.parameter` becomes a ROS parameter
+with its default, description, range and read-only flag; a run-time change builds a new
+dataclass, calls its ``validate()`` and, if it passes, hands it to the algorithm; otherwise the
+change is refused with the validation message.
 """
 
 from __future__ import annotations
 
 import array
 import dataclasses
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable
 from typing import Any
 
 from rcl_interfaces.msg import SetParametersResult
@@ -18,32 +18,14 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from human_tracker.ros.common import declare
+from human_tracker.vision.checks import declared_fields
 
-__all__ = ['ParameterBindings', 'ParameterSpec']
+__all__ = ['ParameterBindings']
 
 
 def _plain(value: Any) -> Any:
     """Array parameters arrive as lists or array.array; the dataclasses hold tuples."""
     return tuple(value) if isinstance(value, (list, tuple, array.array)) else value
-
-
-@dataclass(frozen=True)
-class ParameterSpec:
-    """How one field of an algorithm's parameter dataclass appears as a ROS parameter.
-
-    Attributes:
-        field: Field name in the dataclass (also the ROS parameter name).
-        description: What it means, with unit and the paper's symbol.
-        low: Lower bound for numbers (None: no range declared).
-        high: Upper bound for numbers.
-        runtime: Whether it may change while the node runs.
-    """
-
-    field: str
-    description: str
-    low: float | None = None
-    high: float | None = None
-    runtime: bool = True
 
 
 class ParameterBindings:
@@ -55,30 +37,29 @@ class ParameterBindings:
         self._bindings: list[tuple[dict[str, str], Callable[[], Any], Callable[[Any], None]]] = []
         node.add_on_set_parameters_callback(self._on_set_parameters)
 
-    def bind(
-        self, instance: Any, specs: Sequence[ParameterSpec], apply: Callable[[Any], None], prefix: str = ''
-    ) -> Any:
-        """Declare ``specs`` (as ``prefix`` + field: ``hand.lost_frames``) from the dataclass
-        ``instance``'s defaults; return it with the declared values.
+    def bind(self, instance: Any, apply: Callable[[Any], None], prefix: str = '') -> Any:
+        """Declare the dataclass ``instance``'s declared fields (as ``prefix`` + field:
+        ``hand.lost_frames``) with its values as defaults; return it with the declared values.
 
         Run-time changes build a new instance, call its ``validate()`` and, if it passes,
         hand it to ``apply``; otherwise the change is refused with the validation message.
         """
         values = {}
-        for spec in specs:
-            default = getattr(instance, spec.field)
+        declared = declared_fields(instance)
+        for name, meaning in declared:
+            default = getattr(instance, name)
             if isinstance(default, tuple):
                 default = list(default)
             value = declare(
                 self.node,
-                prefix + spec.field,
+                prefix + name,
                 default,
-                spec.description,
-                low=spec.low,
-                high=spec.high,
-                read_only=not spec.runtime,
+                meaning.description,
+                low=meaning.low,
+                high=meaning.high,
+                read_only=not meaning.runtime,
             )
-            values[spec.field] = tuple(value) if isinstance(default, list) else value
+            values[name] = tuple(value) if isinstance(default, list) else value
         bound = dataclasses.replace(instance, **values)
         bound.validate()
         current = {'value': bound}
@@ -87,7 +68,7 @@ class ParameterBindings:
             current['value'] = new
             apply(new)
 
-        fields = {prefix + spec.field: spec.field for spec in specs}
+        fields = {prefix + name: name for name, _ in declared}
         self._bindings.append((fields, lambda: current['value'], commit))
         return bound
 

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import sys
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 
 import rclpy
 import rclpy.logging
@@ -23,7 +24,7 @@ from human_tracker.ros.startup import (
     without_help,
 )
 
-__all__ = ['run_nodes', 'spin_node']
+__all__ = ['described', 'run_nodes', 'spin_node']
 
 
 def run_nodes(
@@ -95,7 +96,15 @@ def run_nodes(
     return code
 
 
-def _print_usage(build: Callable[[], list[Node]], argv: list[str], name: str, summary: str) -> int:
+@contextmanager
+def described(build: Callable[[], list[Node]], argv: list[str]) -> Iterator[list[Node]]:
+    """The nodes ``build`` makes with the ROS arguments ``argv``, built to be described, never run:
+    no discovery, their algorithms' state not built (:attr:`ImageStage.describing`), their log
+    silenced; destroyed on exit.
+
+    Raises:
+        ValueError, ParameterException: A value the nodes refuse.
+    """
     with quiet_discovery():
         nodes: list[Node] = []
         try:
@@ -105,15 +114,21 @@ def _print_usage(build: Callable[[], list[Node]], argv: list[str], name: str, su
             nodes = build()
             for node in nodes:
                 declare_strict(node)
-            print(usage(name, nodes, summary))
-        except (ValueError, ParameterException) as err:
-            print(f'{name}: cannot start: {err}', file=sys.stderr)
-            return 2
+            yield nodes
         finally:
             for node in nodes:
                 node.destroy_node()
             ImageStage.describing = False
             shutdown()
+
+
+def _print_usage(build: Callable[[], list[Node]], argv: list[str], name: str, summary: str) -> int:
+    try:
+        with described(build, argv) as nodes:
+            print(usage(name, nodes, summary))
+    except (ValueError, ParameterException) as err:
+        print(f'{name}: cannot start: {err}', file=sys.stderr)
+        return 2
     return 0
 
 

@@ -20,7 +20,6 @@ from std_srvs.srv import Trigger
 
 from human_tracker.ros.common import RESULT_QOS, declare, declare_working_width
 from human_tracker.ros.image_conversion import array_to_image
-from human_tracker.ros.parameter_binding import ParameterSpec
 from human_tracker.ros.run import spin_node
 from human_tracker.ros.stage import ImageStage
 from human_tracker.vision.cues.evidence import Evidence
@@ -33,37 +32,7 @@ from human_tracker.vision.cues.skin import (
 )
 from human_tracker.vision.cues.stages import CueStages
 
-__all__ = ['SKIN_PARAMETERS', 'SkinNode', 'main']
-
-SKIN_PARAMETERS = (
-    ParameterSpec(
-        'max_exposure_gain', 'Largest gain brightening a dark frame before its colours are read (1: none).', 1.0, 16.0
-    ),
-    ParameterSpec(
-        'colour_blur', 'Gaussian smoothing of the colours before they are read, sigma in pixels (0: none).', 0.0, 20.0
-    ),
-    ParameterSpec('regions', 'Phase 1: cells (the paper) or pixels (seed pixels grown by hysteresis: small regions).'),
-    ParameterSpec('seed_scale', 'regions: pixels: seeds lie within this many match distances of a class.', 0.01, 100.0),
-    ParameterSpec('grow_scale', 'regions: pixels: regions grow through pixels within this many.', 0.01, 100.0),
-    ParameterSpec('cell_size', 'Side of the square cells of the first partition, pixels.', 2, 256),
-    ParameterSpec('min_region_cells', 'Smallest merged region of candidate cells that is kept, cells.', 1, 100000),
-    ParameterSpec('histogram_bins', 'Bins of each local I1, I2, I3 histogram.', 4, 1024),
-    ParameterSpec('histogram_smoothing', 'Gaussian smoothing of the local histograms, bins.', 0.0, 50.0),
-    ParameterSpec('peak_fraction', 'Height (fraction of the highest) a principal histogram peak must reach.', 0.0, 1.0),
-    ParameterSpec('support_fraction', 'Height (fraction of its peak) down to which a mode extends.', 0.0, 0.99),
-    ParameterSpec('max_peaks', 'Largest number of principal peaks per histogram.', 1, 8),
-    ParameterSpec('min_cluster_pixels', 'Clusters with fewer pixels are not skin.', 1, 10_000_000),
-    ParameterSpec('variance_ratio', "Largest ratio of a cluster's (I2, I3) variance to its class's.", 0.01, 1000.0),
-    ParameterSpec('match_scale', "Multiplies the model's match distance (> 1: more permissive).", 0.01, 100.0),
-    ParameterSpec('split_mixed', 'Split a refused cluster in two in (I2, I3); label the part a class accepts 128.'),
-    ParameterSpec('min_mixed_pixels', 'Smallest refused cluster that is split, pixels.', 1, 10_000_000),
-    ParameterSpec(
-        'merge_distance',
-        'Adjacent candidate cells join one region only within this (I2, I3) distance; 0: any (the paper).',
-        0.0,
-        1000.0,
-    ),
-)
+__all__ = ['SkinNode', 'main']
 
 
 class SkinNode(ImageStage):
@@ -80,7 +49,7 @@ class SkinNode(ImageStage):
         )
         model = SkinModel.load(model_file) if model_file else default_skin_model()
         self.model = model
-        parameters = self.bind_parameters(SkinParameters(), SKIN_PARAMETERS, self._apply)
+        parameters = self.bind_parameters(SkinParameters(), self._apply)
         rate = declare(
             self,
             'adaptation_rate',

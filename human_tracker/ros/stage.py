@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import functools
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from functools import partial
 from typing import TYPE_CHECKING, Any
 
@@ -42,7 +42,7 @@ from human_tracker.ros.common import (
     publish_diagnostics,
 )
 from human_tracker.ros.image_conversion import ImageConversionError, message_to_bgr8
-from human_tracker.ros.parameter_binding import ParameterBindings, ParameterSpec
+from human_tracker.ros.parameter_binding import ParameterBindings
 from human_tracker.ros.startup import PACKAGE_NODES
 from human_tracker.threads import default_threads, use_threads
 from human_tracker.vision.cues.stages import Frame
@@ -213,11 +213,9 @@ class ImageStage(LifecycleNode):
         self.ready_pub.publish(Bool(data=True))
         self.get_logger().info('ready')
 
-    def bind_parameters(
-        self, instance: Any, specs: Sequence[ParameterSpec], apply: Callable[[Any], None], prefix: str = ''
-    ) -> Any:
+    def bind_parameters(self, instance: Any, apply: Callable[[Any], None], prefix: str = '') -> Any:
         """:meth:`ParameterBindings.bind` on this node's parameters."""
-        return self.parameter_bindings.bind(instance, specs, apply, prefix)
+        return self.parameter_bindings.bind(instance, apply, prefix)
 
     def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
         self.active = True

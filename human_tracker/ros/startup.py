@@ -36,6 +36,7 @@ __all__ = [
     'declare_strict',
     'undeclared_parameters',
     'check_configuration',
+    'is_rclpy_parameter',
     'usage',
     'quiet_discovery',
 ]
@@ -175,7 +176,8 @@ def _declared(node: Node) -> list[str]:
     return list(node.get_parameters_by_prefix('').keys())
 
 
-def _ignored(name: str) -> bool:
+def is_rclpy_parameter(name: str) -> bool:
+    """Whether ``name`` is one of rclpy's own parameters (every node has them; none is ours)."""
     return name in _RCLPY_PARAMETERS or name.startswith(_RCLPY_PREFIXES)
 
 
@@ -221,7 +223,7 @@ def undeclared_parameters(nodes: Sequence[Node], argv: Sequence[str]) -> list[st
         for name in _overrides(node):
             given.setdefault(name, []).append(node)
     for name, receivers in sorted(given.items()):
-        if _ignored(name) or any(node.has_parameter(name) for node in receivers):
+        if is_rclpy_parameter(name) or any(node.has_parameter(name) for node in receivers):
             continue
         declared = [p for node in receivers for p in _declared(node)]
         owner = f' for {receivers[0].get_name()}' if len(receivers) == 1 else ''

@@ -49,7 +49,7 @@ from human_tracker.ros.run import spin_node
 from human_tracker.ros.stage import DEFERRED, ImageStage, stamp_ns
 from human_tracker.ros.stamp_matching import FrameGaps, HeldFrame, MaskInputs
 from human_tracker.ros.tracker_outputs import StatusTopic, TrackerOutputs, estimate_values
-from human_tracker.ros.tracker_parameters import FILTER_PARAMETERS, TARGET_PARAMETERS, declare_settings, start_problem
+from human_tracker.ros.tracker_parameters import declare_settings, start_problem
 from human_tracker.vision.cues.evidence import Evidence
 from human_tracker.vision.cues.resolution import same_frame
 from human_tracker.vision.cues.skin import has_colour
@@ -58,7 +58,7 @@ from human_tracker.vision.frame_pipeline import FramePipeline, build_people
 from human_tracker.vision.people.persons import TrackedTarget, targets_line
 from human_tracker.vision.track.target import TargetParameters, TargetResult, parameters_for
 
-__all__ = ['FILTER_PARAMETERS', 'TARGET_PARAMETERS', 'TrackerNode', 'main']
+__all__ = ['TrackerNode', 'main']
 
 # Seconds a stopping node waits for its consumers to acknowledge its last, empty list of faces.
 LAST_WORD_WAIT = 2.0
@@ -74,12 +74,11 @@ class TrackerNode(ImageStage):
         # The primary target (the head of a person) is the one of pose, contour, status and markers.
         self.kinds = settings.kinds
         self.kind = self.kinds[0]
-        filter_parameters = self.bind_parameters(TrackerParameters(), FILTER_PARAMETERS, self._apply_filter)
+        filter_parameters = self.bind_parameters(TrackerParameters(), self._apply_filter)
         # Each kind's cue and loss constants: a person's hands under ``hand.`` (``hand.lost_frames``).
         target_parameters = {
             kind: self.bind_parameters(
                 parameters_for(kind),
-                TARGET_PARAMETERS,
                 partial(self._apply_target, kind),
                 prefix='' if kind == self.kind else f'{kind}.',
             )

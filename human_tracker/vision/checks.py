@@ -1,8 +1,47 @@
-"""Range checks of the parameter dataclasses: each raises ValueError naming the parameter."""
+"""The parameter dataclasses' fields, each declared once (:func:`parameter`: default, meaning,
+range, whether it may change at run time), and their checks (each raises ValueError naming the
+parameter).
+
+A node declares its ROS parameters from these fields, and the shipped YAML and
+``docs/parameters.md`` are generated from the node's declarations: the field is the only place
+a constant is described.
+"""
 
 from __future__ import annotations
 
-__all__ = ['check_choices', 'check_within', 'shares']
+from dataclasses import dataclass, field, fields
+from typing import Any
+
+__all__ = ['Declared', 'check_choices', 'check_within', 'declared_fields', 'parameter', 'shares']
+
+
+@dataclass(frozen=True)
+class Declared:
+    """What a user is told of one constant.
+
+    Attributes:
+        description: Its meaning, with unit and the paper's symbol.
+        low: Least value of a number (None: no range).
+        high: Largest value of a number.
+        runtime: Whether it may change while the node runs (False: fixed at start).
+    """
+
+    description: str
+    low: float | None = None
+    high: float | None = None
+    runtime: bool = True
+
+
+def parameter(
+    default: Any, description: str, *, low: float | None = None, high: float | None = None, runtime: bool = True
+) -> Any:
+    """A dataclass field of an algorithm's constant: its default and :class:`Declared` meaning."""
+    return field(default=default, metadata={'declared': Declared(description, low, high, runtime)})
+
+
+def declared_fields(parameters: Any) -> list[tuple[str, Declared]]:
+    """The declared fields of a parameter dataclass (or instance), in field order."""
+    return [(f.name, f.metadata['declared']) for f in fields(parameters) if 'declared' in f.metadata]
 
 
 def check_choices(parameters: object, **allowed: tuple[str, ...]) -> None:

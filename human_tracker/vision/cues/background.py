@@ -35,6 +35,7 @@ import cv2
 import numba
 import numpy as np
 
+from human_tracker.vision.checks import parameter
 from human_tracker.vision.cues.camera_motion import CameraMotion, scale_transform
 from human_tracker.vision.cues.morphology import disk
 
@@ -67,18 +68,42 @@ class BackgroundParameters:
             frame; 0 never does: the paper's model.
     """
 
-    learning_rate: float = 0.05
-    foreground_learning_rate: float = 0.0
-    threshold: float = 1.0
-    intensity_levels: int = 256
-    initial_variance: float = 25.0
-    min_variance: float = 4.0
-    max_variance: float = 400.0
-    opening_radius: int = 1
-    closing_radius: int = 3
-    compensate_camera: bool = True
-    flooded_fraction: float = 0.5
-    flooded_frames: int = 5
+    learning_rate: float = parameter(
+        0.05, 'α: rate of the first-order filter of m and σ² on background pixels, per frame.', low=0.0, high=1.0
+    )
+    foreground_learning_rate: float = parameter(
+        0.0, 'Rate at which pixels judged target are learnt; 0: never (the paper), > 0: ghosts fade.', low=0.0, high=1.0
+    )
+    threshold: float = parameter(
+        1.0, 'λ: likelihood-ratio threshold background / target (the paper uses 1).', low=1e-06, high=1000000.0
+    )
+    intensity_levels: int = parameter(256, 'n: intensity levels of the uniform target density 1/n.', low=2, high=65536)
+    initial_variance: float = parameter(
+        25.0, 'σ² of every pixel when the model starts, grey levels².', low=0.001, high=100000.0
+    )
+    min_variance: float = parameter(
+        4.0,
+        'Lower bound of σ², grey levels² (keeps the test from calling every pixel target).',
+        low=0.001,
+        high=100000.0,
+    )
+    max_variance: float = parameter(
+        400.0,
+        'Upper bound of σ², grey levels² (keeps the test from calling every pixel background).',
+        low=0.001,
+        high=100000.0,
+    )
+    opening_radius: int = parameter(
+        1, 'Morphological opening radius, pixels (removes isolated detections).', low=0, high=50
+    )
+    closing_radius: int = parameter(3, 'Morphological closing radius, pixels (fills holes).', low=0, high=50)
+    compensate_camera: bool = parameter(True, "Carry the reference frame with the camera's own image motion.")
+    flooded_fraction: float = parameter(
+        0.5, 'Share of the frame above which a mask is flooded (the model no longer fits).', low=0.001, high=1.0
+    )
+    flooded_frames: int = parameter(
+        5, 'Flooded masks in a row after which the model restarts; 0: never.', low=0, high=1000
+    )
 
     def validate(self) -> None:
         """Raise ValueError naming the first parameter out of its range."""

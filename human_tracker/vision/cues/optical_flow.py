@@ -23,6 +23,7 @@ import cv2
 import numba
 import numpy as np
 
+from human_tracker.vision.checks import parameter
 from human_tracker.vision.cues.morphology import disk
 
 __all__ = [
@@ -167,13 +168,25 @@ class FlowParameters:
             (head_cluttered 0.94 -> 0.72 precision at 20 px), so full size is the default.
     """
 
-    method: str = 'dis_patches'
-    min_magnitude: float = 0.5
-    min_texture: float = 400.0
-    median_size: int = 5
-    opening_radius: int = 1
-    closing_radius: int = 0
-    scale: float = 1.0
+    method: str = parameter(
+        'dis_patches', 'Dense flow method: dis_patches, dis_ultrafast, dis_fast, dis_medium or farneback.'
+    )
+    min_magnitude: float = parameter(0.5, 'Flow below this (pixels/frame) counts as zero.', low=0.0, high=100.0)
+    min_texture: float = parameter(
+        400.0,
+        'Texture energy below which flow is not trusted (aperture problem); 0: trust all.',
+        low=0.0,
+        high=1000000000.0,
+    )
+    median_size: int = parameter(5, 'Median filter aperture on the motion mask, pixels.', low=0, high=31)
+    opening_radius: int = parameter(1, 'Opening radius on the motion mask, pixels.', low=0, high=50)
+    closing_radius: int = parameter(0, 'Closing radius on the motion mask, pixels.', low=0, high=50)
+    scale: float = parameter(
+        1.0,
+        'Image scale the flow is computed at (1: full size; smaller is faster and less accurate).',
+        low=0.05,
+        high=1.0,
+    )
 
     def validate(self) -> None:
         """Raise ValueError naming the first parameter out of its range."""

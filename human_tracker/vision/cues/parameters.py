@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from human_tracker.vision.checks import check_choices, check_within
+from human_tracker.vision.checks import check_choices, check_within, parameter
 
 __all__ = ['COLOUR_MODES', 'LIKELIHOODS', 'MOTION_MODES', 'CueParameters']
 
@@ -33,13 +33,27 @@ class CueParameters:
         skin_margin: Dilation, pixels, of the skin regions in the ``mask`` colour mode.
     """
 
-    likelihood: str = 'fused'
-    appearance_parts: int = 2
-    adaptation_rate: float = 0.02
-    motion_mode: str = 'weighted'
-    max_motion_fraction: float = 0.5
-    colour_mode: str = 'weighted'
-    skin_margin: int = 4
+    likelihood: str = parameter('fused', 'fused (shape of eqs. 1-4 times colour appearance) or paper (shape only).')
+    appearance_parts: int = parameter(
+        2, 'Horizontal bands of the target region with their own histogram.', low=1, high=16
+    )
+    adaptation_rate: float = parameter(
+        0.02, 'How fast the appearance reference follows a confident track.', low=0.0, high=1.0
+    )
+    motion_mode: str = parameter(
+        'weighted', 'How motion enters the likelihood: off (eqs. 1-2), weighted (eqs. 3-4) or mask (moving edges only).'
+    )
+    max_motion_fraction: float = parameter(
+        0.5,
+        'A motion mask over more of the frame than this is set aside (camera moved, light changed; a person '
+        'filling more of the view too: raise it for close-up work); 1: keep all.',
+        low=0.01,
+        high=1.0,
+    )
+    colour_mode: str = parameter(
+        'weighted', 'How skin enters: off, weighted (colour term γ of §3.2) or mask (edges near skin regions only).'
+    )
+    skin_margin: int = parameter(4, 'Dilation (pixels) of skin regions in the mask colour mode.', low=0, high=100)
 
     def validate(self) -> None:
         """Raise ValueError naming the first parameter out of its range."""

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from human_tracker.vision.checks import check_choices, check_within
+from human_tracker.vision.checks import check_choices, check_within, parameter
 
 __all__ = ['PROPOSALS', 'FaceParameters']
 
@@ -51,16 +51,43 @@ class FaceParameters:
             learnt on the faces alone.
     """
 
-    proposals: str = 'faces'
-    avoid_faces: bool = False
-    detect_every: int = 1
-    patient_every: int = 8
-    face_search_reach: float = 2.0
-    detector_thread: bool = True
-    detector_wait_interval: float = 0.05
-    box_search_reach: float = 0.35
-    box_min_match: float = 0.6
-    box_look_rate: float = 0.1
+    proposals: str = parameter(
+        'faces',
+        'faces (face detections draw particles, start and restart; needs dlib), skin (skin regions draw particles: a'
+        ' hand) or off.',
+        runtime=False,
+    )
+    avoid_faces: bool = parameter(
+        False, 'A hand: a contour on a detected face is weak; no hypothesis there.', runtime=False
+    )
+    detect_every: int = parameter(1, 'Run the face detector on every this many frames.', low=1, high=100000)
+    patient_every: int = parameter(
+        8, 'Frames between face detector runs once several found no face.', low=1, high=100000
+    )
+    face_search_reach: float = parameter(
+        2.0, 'Face sizes around the predicted face the detector looks within.', low=0.5, high=10.0
+    )
+    detector_thread: bool = parameter(
+        True, 'Face detector in its own thread; its faces serve the next frame.', runtime=False
+    )
+    detector_wait_interval: float = parameter(
+        0.05,
+        'Seconds between frames above which a frame waits for its own face detector run (a slow camera).',
+        low=0.0,
+        high=3600.0,
+    )
+    box_search_reach: float = parameter(
+        0.35,
+        "Box widths around the contour's place a head's box is searched for by its look between faces; 0: off.",
+        low=0.0,
+        high=2.0,
+    )
+    box_min_match: float = parameter(
+        0.6, "Least normalised cross-correlation of the box's look that moves it.", low=-1.0, high=1.0
+    )
+    box_look_rate: float = parameter(
+        0.1, "Share of a matched box's grey levels blended into its look.", low=0.0, high=1.0
+    )
 
     @property
     def wants_faces(self) -> bool:

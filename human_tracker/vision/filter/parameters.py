@@ -6,6 +6,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from human_tracker.vision.checks import parameter
+
 __all__ = ['TrackerParameters']
 
 
@@ -66,31 +68,83 @@ class TrackerParameters:
         seed: Seed of the filter's random generator (a replay is then reproducible).
     """
 
-    num_particles: int = 500
-    min_particles: int = 500
-    kld_error: float = 0.05
-    kld_confidence: float = 0.99
-    kld_bin: tuple[float, float, float, float] = (0.1, 0.1, 0.05, 0.1)
-    search_halfwidth: float = 12.0
-    miss_penalty: float = 144.0
-    search_reference_scale: float = 0.0
-    likelihood_gain: float = 0.01
-    orientation_tolerance: float = 0.5
-    interior_weight: float = 2.0
-    colour_depth: float = 0.1
-    appearance_gain: float = 40.0
-    velocity_damping: float = 0.6
-    process_noise: tuple[float, float, float, float] = (5.0, 5.0, 0.01, 0.02)
-    initial_spread: tuple[float, float, float, float] = (8.0, 8.0, 0.08, 0.08)
-    min_scale: float = 24.0
-    max_scale: float = 2000.0
-    importance_share: float = 0.2
-    restart_share: float = 0.05
-    proposal_spread: tuple[float, float, float, float] = (6.0, 6.0, 0.08, 0.05)
-    detection_floor: float = 0.001
-    shape_switch: float = 0.1
-    variant_penalty: float = 8.0
-    seed: int = 0
+    num_particles: int = parameter(500, 'P, number of particles: the most the filter uses.', low=1, high=100000)
+    min_particles: int = parameter(
+        500,
+        'Fewest particles kept; below num_particles the count follows the posterior (KLD-sampling).',
+        low=1,
+        high=100000,
+    )
+    kld_error: float = parameter(
+        0.05, 'ε of KLD-sampling: the KL divergence allowed from the true posterior.', low=0.0001, high=0.99
+    )
+    kld_confidence: float = parameter(
+        0.99, '1-δ of KLD-sampling: the probability the divergence stays below ε.', low=0.51, high=0.9999
+    )
+    kld_bin: tuple[float, float, float, float] = parameter(
+        (0.1, 0.1, 0.05, 0.1), "KLD-sampling's bin: x, y, s as fractions of the scale s, θ (rad)."
+    )
+    search_halfwidth: float = parameter(
+        12.0, 'δ (eq. 2): pixels searched each side of a contour point along its normal.', low=0.5, high=500.0
+    )
+    miss_penalty: float = parameter(
+        144.0, 'ρ (eqs. 2-3): cost of a point with no edge within δ.', low=0.0, high=1000000000.0
+    )
+    search_reference_scale: float = parameter(
+        0.0,
+        'Scale (px) below which a contour searches δ in proportion and counts distances in its own size; 0: off.',
+        low=0.0,
+        high=1000000.0,
+    )
+    likelihood_gain: float = parameter(0.01, 'K (eq. 1): gain of the likelihood exp(-K Σ φ).', low=1e-09, high=1000.0)
+    orientation_tolerance: float = parameter(
+        0.5,
+        'Largest angle (rad) between an edge gradient and the contour normal for the edge to count; π/2: every edge'
+        ' (the paper).',
+        low=0.01,
+        high=1.5707963267948966,
+    )
+    interior_weight: float = parameter(
+        2.0, 'w (§3.2, > 1): non-skin inside the contour costs 1/w of skin outside.', low=1.0001, high=1000000.0
+    )
+    colour_depth: float = parameter(
+        0.1, 'How far inside / outside the contour skin is sampled, template units.', low=0.001, high=1.0
+    )
+    appearance_gain: float = parameter(
+        40.0, 'λ of the appearance term exp(-λ D²) of the fused likelihood.', low=0.0, high=10000.0
+    )
+    velocity_damping: float = parameter(
+        0.6, 'a of the AR(2) dynamics (§2.2): 0 random walk, 1 constant velocity.', low=0.0, high=1.0
+    )
+    process_noise: tuple[float, float, float, float] = parameter(
+        (5.0, 5.0, 0.01, 0.02), 'W (§2.2): std of x, y (px), s (fraction), θ (rad) per frame.'
+    )
+    initial_spread: tuple[float, float, float, float] = parameter(
+        (8.0, 8.0, 0.08, 0.08), 'Σ (§2.5): std of the initial cloud: x, y (px), s (fraction), θ (rad).'
+    )
+    min_scale: float = parameter(24.0, 'Smallest scale s: reference region width in pixels.', low=1.0, high=100000.0)
+    max_scale: float = parameter(2000.0, 'Largest scale s: reference region width in pixels.', low=1.0, high=100000.0)
+    importance_share: float = parameter(
+        0.2, 'Share of particles drawn around detections with the f/g correction.', low=0.0, high=1.0
+    )
+    restart_share: float = parameter(
+        0.05, 'Share of particles drawn around detections without correction.', low=0.0, high=1.0
+    )
+    proposal_spread: tuple[float, float, float, float] = parameter(
+        (6.0, 6.0, 0.08, 0.05), 'Std of particles drawn around a detection: x, y (px), s (fraction), θ (rad).'
+    )
+    detection_floor: float = parameter(
+        0.001, 'Likelihood of a state far from every face found, relative to one on a face.', low=1e-09, high=1.0
+    )
+    shape_switch: float = parameter(
+        0.1, "Probability a frame that a particle changes to another of the template's shapes.", low=0.0, high=1.0
+    )
+    variant_penalty: float = parameter(
+        8.0, "Cost of a particle in a variant shape (a closed hand), in ρ's.", low=0.0, high=1000.0
+    )
+    seed: int = parameter(
+        0, 'Seed of the particle filter (replays are reproducible).', low=0, high=2147483647, runtime=False
+    )
 
     def validate(self) -> None:
         """Raise ValueError naming the first parameter out of its range."""

@@ -14,7 +14,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from functools import wraps
 
-from human_tracker.vision.checks import check_choices, check_within, shares
+from human_tracker.vision.checks import check_choices, check_within, parameter, shares
 from human_tracker.vision.cues.parameters import COLOUR_MODES, LIKELIHOODS, MOTION_MODES, CueParameters
 from human_tracker.vision.faces.parameters import PROPOSALS, FaceParameters
 
@@ -58,9 +58,15 @@ class CameraParameters:
             whole motion.
     """
 
-    compensate_camera: bool = True
-    estimate_camera_motion: bool = False
-    pan_smoothing: float = 0.5
+    compensate_camera: bool = parameter(
+        True, "Carry the particles with the camera's shake (as the background stage measures it)."
+    )
+    estimate_camera_motion: bool = parameter(
+        False, "Without a background stage in process, measure the camera's motion here."
+    )
+    pan_smoothing: float = parameter(
+        0.5, "Weight of the past in the camera's mean shift, left to the dynamics.", low=0.0, high=0.99
+    )
 
     def validate(self) -> None:
         """Raise ValueError naming the first parameter out of its range."""
@@ -95,17 +101,34 @@ class StartParameters:
             (the best-fitting one wins: the hand among the skin-coloured regions).
     """
 
-    init_region: str = 'motion'
-    init_method: str = 'scan'
-    upper_end_restarts: bool = False
-    upright_angle: float = 0.0
-    min_blob_area: int = 1000
-    region_closing: int = 4
-    init_confidence: float = 0.45
-    init_motion_support: float = 0.0
-    switch_margin: float = 0.2
-    hypothesis_samples: int = 128
-    hypothesis_blobs: int = 1
+    init_region: str = parameter('motion', 'Region X_0 comes from: motion or skin.')
+    init_method: str = parameter(
+        'scan', 'Initialisation from the moving region: scan (§2.5.2, head) or moments (§2.5.1).'
+    )
+    upper_end_restarts: bool = parameter(
+        False, 'With moments, once started, X_0 of an elongated region at its upper end.'
+    )
+    upright_angle: float = parameter(0.0, 'θ_upright of the scan initialisation, rad.', low=-3.2, high=3.2)
+    min_blob_area: int = parameter(
+        1000, 'Smallest moving region (pixels) that can start or restart a track.', low=1, high=10000000
+    )
+    region_closing: int = parameter(
+        4, 'Closing radius (pixels) joining a moving silhouette before it is measured.', low=0, high=100
+    )
+    init_confidence: float = parameter(
+        0.45, 'Fraction of contour points on edges a motion hypothesis needs to start the filter.', low=0.0, high=1.0
+    )
+    init_motion_support: float = parameter(
+        0.0,
+        'With a motion mask, fraction of contour points on it a hypothesis needs to start the filter.',
+        low=0.0,
+        high=1.0,
+    )
+    switch_margin: float = parameter(
+        0.2, 'How much more moving support a hypothesis elsewhere needs to restart the filter there.', low=0.0, high=1.0
+    )
+    hypothesis_samples: int = parameter(128, 'States scored around a motion hypothesis.', low=1, high=100000)
+    hypothesis_blobs: int = parameter(1, 'With moments, how many of the largest regions give an X_0.', low=1, high=100)
 
     def validate(self) -> None:
         """Raise ValueError naming the first parameter out of its range."""
@@ -141,12 +164,33 @@ class LossParameters:
             target's appearance make a frame weak only with the fit fallen too.
     """
 
-    lost_confidence: float = 0.3
-    lost_motion_support: float = 0.0
-    lost_skin_support: float = 0.0
-    lost_appearance_distance: float = 0.5
-    lost_frames: int = 5
-    lost_fit_drop: float = 0.25
+    lost_confidence: float = parameter(
+        0.3, 'Fraction of contour points on edges below which a frame is weak.', low=0.0, high=1.0
+    )
+    lost_motion_support: float = parameter(
+        0.0,
+        'Fraction of contour points on the motion mask below which a frame is weak; 0: off (0.05 with the '
+        'foreground cue: LOST when the person leaves).',
+        low=0.0,
+        high=1.0,
+    )
+    lost_skin_support: float = parameter(
+        0.0,
+        'Share of the contour interior on skin below which a frame with skin labels is weak; 0: off.',
+        low=0.0,
+        high=1.0,
+    )
+    lost_appearance_distance: float = parameter(
+        0.5, 'Bhattacharyya distance from the reference above which a frame is weak.', low=0.0, high=1.0
+    )
+    lost_frames: int = parameter(5, 'Consecutive weak frames after which the target is lost.', low=1, high=100000)
+    lost_fit_drop: float = parameter(
+        0.25,
+        "Share the edge fit may fall below the target's usual fit before a frame without a motion mask is weak"
+        ' (without a mask, a change of colour is weak only with it).',
+        low=0.0,
+        high=1.0,
+    )
 
     def validate(self) -> None:
         """Raise ValueError naming the first parameter out of its range."""
@@ -185,12 +229,24 @@ class FrameParameters:
         canny_high: Canny high threshold.
     """
 
-    working_width: int = 320
-    min_target_width: float = 20.0
-    colour_edges: bool = False
-    edge_blur_sigma: float = 1.5
-    canny_low: float = 40.0
-    canny_high: float = 100.0
+    working_width: int = parameter(
+        320,
+        'Frames wider than this many pixels are reduced to it before processing (area averaging); masks are published'
+        ' at that size. 0: full size. The same value in every stage spares the tracker resizing masks.',
+        low=0,
+        high=100000,
+        runtime=False,
+    )
+    min_target_width: float = parameter(
+        20.0,
+        'Working pixels a target must span: a smaller one is tracked on a less reduced frame; 0: off.',
+        low=0.0,
+        high=10000.0,
+    )
+    colour_edges: bool = parameter(False, 'Detect edges on the colour image (strongest channel), not on its intensity.')
+    edge_blur_sigma: float = parameter(1.5, 'Gaussian pre-filter of the edge detector, pixels.', low=0.0, high=20.0)
+    canny_low: float = parameter(40.0, 'Canny low hysteresis threshold.', low=0.0, high=10000.0)
+    canny_high: float = parameter(100.0, 'Canny high hysteresis threshold.', low=0.0, high=10000.0)
 
     def validate(self) -> None:
         """Raise ValueError naming the first parameter out of its range."""

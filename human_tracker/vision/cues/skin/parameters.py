@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
+from human_tracker.vision.checks import parameter
 from human_tracker.vision.cues.exposure import MAX_EXPOSURE_GAIN
 
 REGION_METHODS = ('cells', 'pixels')
@@ -60,24 +61,58 @@ class SkinParameters:
             surface (opt-in: docs/decisions/skin-cells-merged-by-colour.md).
     """
 
-    max_exposure_gain: float = MAX_EXPOSURE_GAIN
-    colour_blur: float = 0.0
-    regions: str = 'cells'
-    seed_scale: float = 1.0
-    grow_scale: float = 2.5
-    cell_size: int = 8
-    min_region_cells: int = 2
-    histogram_bins: int = 64
-    histogram_smoothing: float = 1.0
-    peak_fraction: float = 0.1
-    support_fraction: float = 0.1
-    max_peaks: int = 3
-    min_cluster_pixels: int = 16
-    variance_ratio: float = 6.0
-    match_scale: float = 1.5
-    split_mixed: bool = True
-    min_mixed_pixels: int = 64
-    merge_distance: float = 0.0
+    max_exposure_gain: float = parameter(
+        MAX_EXPOSURE_GAIN,
+        'Largest gain brightening a dark frame before its colours are read (1: none).',
+        low=1.0,
+        high=16.0,
+    )
+    colour_blur: float = parameter(
+        0.0,
+        'Gaussian smoothing of the colours before they are read, sigma in pixels (0: none; 1 helps a '
+        'compressed camera).',
+        low=0.0,
+        high=20.0,
+    )
+    regions: str = parameter(
+        'cells', 'Phase 1: cells (the paper) or pixels (seed pixels grown by hysteresis: small regions).'
+    )
+    seed_scale: float = parameter(
+        1.0, 'regions: pixels: seeds lie within this many match distances of a class.', low=0.01, high=100.0
+    )
+    grow_scale: float = parameter(
+        2.5, 'regions: pixels: regions grow through pixels within this many.', low=0.01, high=100.0
+    )
+    cell_size: int = parameter(8, 'Side of the square cells of the first partition, pixels.', low=2, high=256)
+    min_region_cells: int = parameter(
+        2, 'Smallest merged region of candidate cells that is kept, cells.', low=1, high=100000
+    )
+    histogram_bins: int = parameter(64, 'Bins of each local I1, I2, I3 histogram.', low=4, high=1024)
+    histogram_smoothing: float = parameter(1.0, 'Gaussian smoothing of the local histograms, bins.', low=0.0, high=50.0)
+    peak_fraction: float = parameter(
+        0.1, 'Height (fraction of the highest) a principal histogram peak must reach.', low=0.0, high=1.0
+    )
+    support_fraction: float = parameter(
+        0.1, 'Height (fraction of its peak) down to which a mode extends.', low=0.0, high=0.99
+    )
+    max_peaks: int = parameter(3, 'Largest number of principal peaks per histogram.', low=1, high=8)
+    min_cluster_pixels: int = parameter(16, 'Clusters with fewer pixels are not skin.', low=1, high=10000000)
+    variance_ratio: float = parameter(
+        6.0, "Largest ratio of a cluster's (I2, I3) variance to its class's.", low=0.01, high=1000.0
+    )
+    match_scale: float = parameter(
+        1.5, "Multiplies the model's match distance (> 1: more permissive).", low=0.01, high=100.0
+    )
+    split_mixed: bool = parameter(
+        True, 'Split a refused cluster in two in (I2, I3); label the part a class accepts 128.'
+    )
+    min_mixed_pixels: int = parameter(64, 'Smallest refused cluster that is split, pixels.', low=1, high=10000000)
+    merge_distance: float = parameter(
+        0.0,
+        'Adjacent candidate cells join one region only within this (I2, I3) distance; 0: any (the paper).',
+        low=0.0,
+        high=1000.0,
+    )
 
     def validate(self) -> None:
         """Raise ValueError naming the first parameter out of its range."""

@@ -48,8 +48,9 @@ from human_tracker.ros.common import RESULT_QOS
 from human_tracker.ros.run import spin_node
 from human_tracker.ros.stage import DEFERRED, ImageStage, stamp_ns
 from human_tracker.ros.stamp_matching import FrameGaps, HeldFrame, MaskInputs
-from human_tracker.ros.tracker_outputs import StatusTopic, TrackerOutputs, estimate_values
-from human_tracker.ros.tracker_parameters import declare_settings, start_problem
+from human_tracker.ros.status_topic import PrimaryState, StatusTopic
+from human_tracker.ros.tracker_outputs import PublishedFrame, TrackerOutputs, estimate_values
+from human_tracker.ros.tracker_parameters import SURFACE_TO_CENTRE, TARGET_WIDTHS, declare_settings, start_problem
 from human_tracker.vision.cues.evidence import Evidence
 from human_tracker.vision.cues.resolution import same_frame
 from human_tracker.vision.cues.skin import has_colour
@@ -88,8 +89,8 @@ class TrackerNode(ImageStage):
         self.gaps = FrameGaps()
         self.last_result: TargetResult | None = None
         self.last_outcomes: list[TrackedTarget] = []
-        self.outputs = TrackerOutputs(self)
-        self.status_topic = StatusTopic(self)
+        self.outputs = TrackerOutputs(self, settings)
+        self.status_topic = StatusTopic(self, self._primary_state)
         self.create_timer(settings.status_period, self.status_topic.publish, clock=self.steady_clock)
         self.requested_box: tuple[float, float, float, float] | None = None
         self.create_subscription(RegionOfInterest, 'init_roi', self._on_init_roi, RESULT_QOS)
@@ -247,9 +248,31 @@ class TrackerNode(ImageStage):
             )
         self.counters.processed += 1
         self.outputs.publish(
-            image, header, found.outcomes, primary, interval, depth, motion if motion is not None else skin
+            PublishedFrame(
+                image,
+                header,
+                found.outcomes,
+                primary,
+                {outcome.name: self.people.slot(outcome.name).tracker for outcome in found.outcomes},
+                self.lens(size[1], size[0], self.settings.image_rectified),
+                self._sizes(),
+                interval,
+                depth,
+                motion if motion is not None else skin,
+            )
         )
         return primary.result
+
+    def _sizes(self) -> dict[str, tuple[float, float]]:
+        """Each kind's width and surface-to-centre depth, metres: the primary kind's from its
+        parameters (they change at run time), the others' typical."""
+        sizes = {kind: (TARGET_WIDTHS[kind], SURFACE_TO_CENTRE[kind]) for kind in self.kinds}
+        sizes[self.kind] = (self._setting('target_width'), self._setting('surface_to_centre'))
+        return sizes
+
+    def _primary_state(self) -> PrimaryState:
+        """What ``status`` says now (:class:`~human_tracker.ros.status_topic.PrimaryState`)."""
+        return PrimaryState(self.primary.status, self.last_result, self.warnings(), self.last_frame_grey)
 
     def _start_on_boxes(self, size: tuple[int, ...]) -> None:
         """Start the primary target on a box asked for on ``init_roi``, or on ``init_box`` while

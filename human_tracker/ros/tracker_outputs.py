@@ -10,10 +10,11 @@ physical width, or from a registered depth image where it has readings in the ta
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import (
     Point32,
     PolygonStamped,
@@ -22,21 +23,20 @@ from geometry_msgs.msg import (
     TwistWithCovarianceStamped,
 )
 from nav_msgs.msg import Odometry
+from rclpy.node import Node
 from sensor_msgs.msg import Image
-from std_msgs.msg import Header
 from visualization_msgs.msg import MarkerArray
 
 from human_tracker.drawing import annotate, draw_target
-from human_tracker.ros.common import LATCHED_QOS, RESULT_QOS, node_status
+from human_tracker.ros.common import RESULT_QOS
 from human_tracker.ros.image_conversion import array_to_image
 from human_tracker.ros.markers import cleared_markers, target_markers
 from human_tracker.ros.standard_outputs import PublishedTarget, StandardOutputs
-from human_tracker.ros.tracker_parameters import SURFACE_TO_CENTRE, TARGET_WIDTHS
+from human_tracker.ros.tracker_parameters import TrackerSettings
 from human_tracker.vision.filter.contour_filter import TrackEstimate, box_from_state
 from human_tracker.vision.geometry.camera import metric_positions, position_covariance, undistort_pixels
 from human_tracker.vision.geometry.depth import region_depth
 from human_tracker.vision.people.persons import TrackedTarget, targets_line
-from human_tracker.vision.track.lifecycle import LOST
 from human_tracker.vision.track.outcomes import state_words
 from human_tracker.vision.track.target import TargetResult, TargetTracker
 
@@ -44,7 +44,7 @@ __all__ = [
     'UNKNOWN_VARIANCE',
     'estimate_values',
     'MetricPose',
-    'StatusTopic',
+    'PublishedFrame',
     'TrackerOutputs',
     'contour_message',
     'debug_view',
@@ -202,6 +202,35 @@ def debug_view(
     return view
 
 
+@dataclass(frozen=True)
+class PublishedFrame:
+    """One tracked frame as :class:`TrackerOutputs` publishes it.
+
+    Attributes:
+        image: The camera's image (BGR).
+        header: Its header: every message of the frame is stamped with it.
+        outcomes: Every target's outcome on the frame.
+        primary: The one ``pose``, ``velocity``, ``contour`` and ``markers`` follow.
+        trackers: Each outcome's tracker, by the outcome's name (its particles, its template).
+        lens: K and the distortion coefficients D the pixels are seen through.
+        sizes: Each kind's physical width and the depth from its surface to its centre, metres.
+        interval: Seconds since the frame before (0: the first, or after a gap).
+        depth: The registered depth image (metres), or None.
+        mask: The cue drawn on the debug image, or None.
+    """
+
+    image: np.ndarray
+    header: Any
+    outcomes: list[TrackedTarget]
+    primary: TrackedTarget
+    trackers: Mapping[str, TargetTracker]
+    lens: tuple[np.ndarray, np.ndarray | None]
+    sizes: Mapping[str, tuple[float, float]]
+    interval: float
+    depth: np.ndarray | None
+    mask: np.ndarray | None
+
+
 class TrackerOutputs:
     """The tracker node's result publishers, and what they keep between frames.
 
@@ -212,15 +241,16 @@ class TrackerOutputs:
             target's region.
     """
 
-    def __init__(self, node: Any) -> None:
-        self.node = node
+    def __init__(self, node: Node, settings: TrackerSettings) -> None:
+        """Publishers on ``node``; what they publish as ``settings`` say."""
+        self.kind = settings.kinds[0]
+        self.fit_residual_gain = settings.fit_residual_gain
         self.pose_pub = node.create_publisher(PoseWithCovarianceStamped, 'pose', RESULT_QOS)
         self.velocity_pub = node.create_publisher(TwistWithCovarianceStamped, 'velocity', RESULT_QOS)
         self.contour_pub = node.create_publisher(PolygonStamped, 'contour', RESULT_QOS)
         self.debug_pub = node.create_publisher(Image, 'debug_image', RESULT_QOS)
         self.markers_pub = node.create_publisher(MarkerArray, 'markers', RESULT_QOS)
-        self.targets_pub = node.create_publisher(Odometry, 'targets', RESULT_QOS) if len(node.kinds) > 1 else None
-        settings = node.settings
+        self.targets_pub = node.create_publisher(Odometry, 'targets', RESULT_QOS) if len(settings.kinds) > 1 else None
         self.standard = StandardOutputs(
             node,
             tf=settings.publish_tf,
@@ -233,108 +263,70 @@ class TrackerOutputs:
         self.frames_without_depth_reading = 0
         self._distance_of: TargetTracker | None = None  # the tracker ``last_distance`` was measured on
 
-    def publish(
-        self,
-        image: np.ndarray,
-        header: Any,
-        outcomes: list[TrackedTarget],
-        primary: TrackedTarget,
-        interval: float,
-        depth: np.ndarray | None,
-        mask: np.ndarray | None,
-    ) -> None:
-        """Everything of one frame's ``outcomes`` under ``header`` (``interval``: seconds since the
-        frame before; ``depth``: metres; ``mask``: the cue drawn on the debug image)."""
-        node, result = self.node, primary.result
-        tracker = node.people.slot(primary.name).tracker
+    def publish(self, frame: PublishedFrame) -> None:
+        """Everything of one frame."""
+        result = frame.primary.result
+        tracker = frame.trackers[frame.primary.name]
         if tracker is not self._distance_of:
             # Another person's head: the last distance was the other's.
             self._distance_of, self.last_distance = tracker, None
-        shape = image.shape[:2]
-        pose = self._publish_primary(tracker, result, header, shape, interval, depth) if result.tracking else None
+        pose = self._publish_primary(frame, tracker) if result.tracking else None
         if pose is None:
             self.last_distance = None
-        poses = self._target_poses(outcomes, primary, shape, depth, pose)
+        poses = self._target_poses(frame, pose)
         if self.targets_pub is not None:
-            self._publish_targets(poses, header)
-        self.standard.publish(header, shape, [self._published(outcome, found) for outcome, found in poses])
+            self._publish_targets(poses, frame.header)
+        shape = frame.image.shape[:2]
+        self.standard.publish(frame.header, shape, [self._published(frame, outcome, found) for outcome, found in poses])
         if self.markers_pub.get_subscription_count() > 0:
-            self._publish_markers(result, header, shape)
+            self._publish_markers(frame, tracker)
         if self.debug_pub.get_subscription_count() > 0:
-            view = debug_view(image, outcomes, primary, tracker.particles, mask)
-            self.debug_pub.publish(array_to_image(view, 'bgr8', header))
+            view = debug_view(frame.image, frame.outcomes, frame.primary, tracker.particles, frame.mask)
+            self.debug_pub.publish(array_to_image(view, 'bgr8', frame.header))
 
     def _metric_pose(
-        self,
-        tracker: TargetTracker,
-        estimate: TrackEstimate,
-        shape: tuple[int, ...],
-        depth: np.ndarray | None,
-        kind: str,
+        self, frame: PublishedFrame, tracker: TargetTracker, estimate: TrackEstimate, kind: str
     ) -> MetricPose:
-        """:func:`metric_pose` with the node's camera and the physical size of ``kind`` (the
-        primary kind's from its parameters, which may change at run time)."""
-        node = self.node
-        lens = node.lens(shape[1], shape[0], node.settings.image_rectified)
-        width, surface = self._physical(kind)
-        return metric_pose(tracker, estimate, shape, lens, width, surface, depth, node.settings.fit_residual_gain)
+        """:func:`metric_pose` of a target of ``kind`` on ``frame``."""
+        width, surface = frame.sizes[kind]
+        shape = frame.image.shape[:2]
+        return metric_pose(tracker, estimate, shape, frame.lens, width, surface, frame.depth, self.fit_residual_gain)
 
-    def _physical(self, kind: str) -> tuple[float, float]:
-        """The width of a target of ``kind`` and the depth from its surface to its centre, metres
-        (the primary kind's from its parameters, which may change at run time)."""
-        node = self.node
-        if kind == node.kind:
-            return node.get_parameter('target_width').value, node.get_parameter('surface_to_centre').value
-        return TARGET_WIDTHS[kind], SURFACE_TO_CENTRE[kind]
-
-    def _publish_primary(
-        self,
-        tracker: TargetTracker,
-        result: TargetResult,
-        header: Any,
-        shape: tuple[int, ...],
-        interval: float,
-        depth: np.ndarray | None,
-    ) -> PoseWithCovariance:
+    def _publish_primary(self, frame: PublishedFrame, tracker: TargetTracker) -> PoseWithCovariance:
         """The pose and contour; the velocity too when the frame before is ``interval`` s back.
         With a ``depth`` image the distance is its readings' in the target's region. Returns the pose."""
-        estimate = result.estimate
+        estimate = frame.primary.result.estimate
         particles, previous = tracker.particles, tracker.previous_particles
         assert estimate is not None and particles is not None and previous is not None
-        found = self._metric_pose(tracker, estimate, shape, depth, self.node.kind)
+        found = self._metric_pose(frame, tracker, estimate, self.kind)
         self.frames_without_depth_reading += found.depth_missing
-        self.pose_pub.publish(PoseWithCovarianceStamped(header=header, pose=found.pose))
+        self.pose_pub.publish(PoseWithCovarianceStamped(header=frame.header, pose=found.pose))
         # Distances of the same kind on both frames: measured on both, or both from the scale.
         distance = found.distance
         previous_distance, self.last_distance = self.last_distance, distance
-        if interval > 0:
+        if frame.interval > 0:
             both = distance is not None and previous_distance is not None
             now = found.cloud if both or distance is None else metric_positions(particles, *found.camera)
             before = metric_positions(previous, *found.camera, depth=previous_distance if both else None)
-            self.velocity_pub.publish(velocity_message(header, now, before, previous, particles, interval))
-        self.contour_pub.publish(contour_message(header, estimate.contour))
+            self.velocity_pub.publish(velocity_message(frame.header, now, before, previous, particles, frame.interval))
+        self.contour_pub.publish(contour_message(frame.header, estimate.contour))
         return found.pose
 
     def _target_poses(
-        self,
-        outcomes: list[TrackedTarget],
-        primary: TrackedTarget,
-        shape: tuple[int, ...],
-        depth: np.ndarray | None,
-        primary_pose: PoseWithCovariance | None,
+        self, frame: PublishedFrame, primary_pose: PoseWithCovariance | None
     ) -> list[tuple[TrackedTarget, PoseWithCovariance]]:
-        """Each target TRACKING on this frame with its metric pose; the ``primary`` target's is the
+        """Each target TRACKING on this frame with its metric pose; the primary target's is the
         one ``pose`` got (``primary_pose``)."""
         poses = []
-        for outcome in outcomes:
+        for outcome in frame.outcomes:
             if not outcome.result.tracking:
                 continue
-            if outcome is primary:
+            if outcome is frame.primary:
                 assert primary_pose is not None  # published on pose: the primary target is TRACKING
                 poses.append((outcome, primary_pose))
             else:
-                tracker = self.node.people.slot(outcome.name).tracker
-                found = self._metric_pose(tracker, outcome.result.estimate, shape, depth, outcome.kind)
+                tracker = frame.trackers[outcome.name]
+                found = self._metric_pose(frame, tracker, outcome.result.estimate, outcome.kind)
                 poses.append((outcome, found.pose))
         return poses
 
@@ -346,11 +338,12 @@ class TrackerOutputs:
             odometry.twist.covariance = (np.eye(6) * UNKNOWN_VARIANCE).reshape(-1).tolist()
             self.targets_pub.publish(odometry)
 
-    def _published(self, outcome: TrackedTarget, pose: PoseWithCovariance) -> PublishedTarget:
+    @staticmethod
+    def _published(frame: PublishedFrame, outcome: TrackedTarget, pose: PoseWithCovariance) -> PublishedTarget:
         """A TRACKING target as the standard outputs take it: its box, pose and physical size."""
         estimate = outcome.result.estimate
         assert estimate is not None
-        width, surface = self._physical(outcome.kind)
+        width, surface = frame.sizes[outcome.kind]
         box = tuple(float(v) for v in estimate.box)
         return PublishedTarget(
             id=outcome.id,
@@ -363,62 +356,24 @@ class TrackerOutputs:
             size=(width, width * box[3] / box[2], 2.0 * surface),
         )
 
-    def _publish_markers(self, result: TargetResult, header: Any, shape: tuple[int, ...]) -> None:
-        """The target's contour and label for RViz while the filter has an estimate; cleared once when it has none."""
+    def _publish_markers(self, frame: PublishedFrame, tracker: TargetTracker) -> None:
+        """The primary target's contour and label for RViz while the filter has an estimate;
+        cleared once when it has none."""
+        result, header = frame.primary.result, frame.header
         estimate = result.estimate
         if estimate is None:
             if self.markers_shown:
                 self.markers_pub.publish(cleared_markers(header))
                 self.markers_shown = False
             return
-        node = self.node
-        k, distortion = node.lens(shape[1], shape[0], node.settings.image_rectified)
+        k, distortion = frame.lens
         depth = self.last_distance  # this frame's measured distance, when it was published with one
         if depth is None or not result.tracking:
-            width = node.get_parameter('target_width').value
-            depth = float(metric_positions(estimate.state, node.template, k, width)[2])
+            depth = float(metric_positions(estimate.state, tracker.template, k, frame.sizes[self.kind][0])[2])
         contour = undistort_pixels(estimate.contour, k, distortion)
         facing = result.facing if result.tracking else None
         markers = target_markers(
-            header, contour, depth, k, kind=node.kind, ident=0, status=result.status, facing=facing
+            header, contour, depth, k, kind=self.kind, ident=0, status=result.status, facing=facing
         )
         self.markers_pub.publish(markers)
         self.markers_shown = True
-
-
-class StatusTopic:
-    """The node's latched ``status``: the primary target's state and its cues' support, stamped
-    with the last frame tracked; sent at once when the state or the shape changes (a hand opening
-    or closing is a gesture), where a head faces changes, or the frames lose their colour, and every
-    ``status_period``."""
-
-    def __init__(self, node: Any) -> None:
-        self.node = node
-        self.pub = node.create_publisher(DiagnosticArray, 'status', LATCHED_QOS)
-        self.header = Header()
-        self.sent: tuple[str, str, str, bool] | None = None
-
-    def on_frame(self, header: Any) -> None:
-        """A frame was tracked under ``header``: publish if what a consumer waits for changed."""
-        self.header = header
-        if self._key() != self.sent:
-            self.publish()
-
-    def publish(self) -> None:
-        """Publish the state now."""
-        node = self.node
-        values = estimate_values(node.last_result)
-        warnings = node.warnings()
-        if warnings:
-            values['warnings'] = '; '.join(warnings)
-        state = node.primary.status
-        level = DiagnosticStatus.WARN if state == LOST or warnings else DiagnosticStatus.OK
-        self.pub.publish(DiagnosticArray(header=self.header, status=[node_status(node, state, values, level=level)]))
-        self.sent = self._key()
-
-    def _key(self) -> tuple[str, str, str, bool]:
-        result = self.node.last_result
-        estimate = None if result is None else result.estimate
-        shape = '' if estimate is None else estimate.shape
-        facing = '' if result is None or result.facing is None else str(result.facing)
-        return self.node.primary.status, shape, facing, self.node.last_frame_grey

@@ -10,22 +10,16 @@ import sys
 from pathlib import Path
 from typing import TypeVar
 
+from human_tracker.graph_commands import add_graph_commands
 from human_tracker.io.bags import BagError
 from human_tracker.io.frames import FrameSourceError
 from human_tracker.io.sequences import SequenceError, sequence_name
+from human_tracker.skin_commands import add_skin_commands
+from human_tracker.skin_commands import skin_help as _skin_help
 
 __all__ = ['main']
 
 _T = TypeVar('_T')
-
-_MERGE_DISTANCE_HELP = (
-    'skin cells: adjacent candidate cells join one region only when their mean (I2, I3) lie within D '
-    '(default 0: any, the paper); 10 keeps a hand apart from a skin-coloured surface of another shade'
-)
-_COLOUR_BLUR_HELP = (
-    'skin labels: Gaussian smoothing of the colours before they are read, sigma in pixels '
-    '(default 0: none; 1 helps a compressed camera, docs/decisions/skin-labels.md)'
-)
 
 
 def _generate(options: argparse.Namespace) -> int:
@@ -212,86 +206,6 @@ def _import(options: argparse.Namespace) -> int:
     return 0
 
 
-def _graph(options: argparse.Namespace) -> int:
-    from human_tracker.ros import graph
-
-    if options.command == 'topics':
-        lines = graph.topics(options.seconds)
-    elif options.command == 'echo':
-        lines = graph.echo(options.topic, options.count, options.timeout)
-        if not lines:
-            raise ValueError(f'no message on {options.topic} within {options.timeout} s')
-        lines = [line for text in lines for line in (text, '---')]
-    else:
-        lines = [graph.call(options.service, options.timeout)]
-    print('\n'.join(lines))
-    return 0
-
-
-def _train_skin(options: argparse.Namespace) -> int:
-    from human_tracker.io.skin_samples import read_skin_samples
-    from human_tracker.vision.cues.skin import train_skin_model
-
-    colours, is_skin = read_skin_samples(options.samples)
-    model = train_skin_model(
-        colours, is_skin, num_classes=options.classes, skin_coverage=options.coverage, seed=options.seed
-    )
-    model.notes['source'] = Path(options.samples).name
-    options.out.parent.mkdir(parents=True, exist_ok=True)
-    options.out.write_text(model.to_json() + '\n')
-    print(json.dumps(model.notes, indent=2))
-    print(f'human_tracker train-skin: wrote {options.out} ({len(model.classes)} classes)')
-    return 0
-
-
-def _skin(options: argparse.Namespace) -> int:
-    import cv2
-    import numpy as np
-
-    from human_tracker.io.frames import open_frames
-    from human_tracker.vision.cues.resolution import to_working, working_scale
-    from human_tracker.vision.cues.skin import SkinModel, SkinParameters, SkinSegmenter, default_skin_model, has_colour
-
-    source = open_frames(options.input)
-    model = SkinModel.load(options.model) if options.model else default_skin_model()
-    parameters = SkinParameters(
-        colour_blur=options.colour_blur, regions=options.regions, merge_distance=options.merge_distance
-    )
-    segmenter = SkinSegmenter(model, parameters)
-    options.out.mkdir(parents=True, exist_ok=True)
-    written, unreadable, grey = 0, [], 0
-    labelled = 0.0
-    try:
-        for index, image in enumerate(source):
-            stem = source.files[index].stem if source.files else f'{Path(options.input).stem}_{index:06d}'
-            if image is None:
-                unreadable.append(stem)
-                continue
-            if not has_colour(image):
-                grey += 1  # no chromaticity: written as no skin, counted
-                mask = np.zeros(image.shape[:2], np.uint8)
-            else:
-                # As the skin stage does: at the working width, cells scaled, labels back to full size.
-                scale = working_scale(image.shape[1], options.working_width)
-                mask = segmenter.segment(to_working(image, options.working_width), scale)
-                mask = cv2.resize(mask, (image.shape[1], image.shape[0]), interpolation=cv2.INTER_NEAREST)
-            cv2.imwrite(str(options.out / f'{stem}.png'), np.where(mask > 0, 255, 0).astype(np.uint8))
-            written += 1
-            labelled += float(np.count_nonzero(mask)) / mask.size
-    finally:
-        source.close()
-    print(
-        f'human_tracker skin: wrote {written} masks (255 = skin) to {options.out}; '
-        f'{labelled / max(written, 1):.1%} of the pixels labelled skin on average'
-    )
-    if grey:
-        print(f'human_tracker skin: {grey} grey-level frames (no colour, no skin)', file=sys.stderr)
-    if unreadable:
-        print(f'human_tracker skin: {len(unreadable)} unreadable images: {", ".join(unreadable)}', file=sys.stderr)
-        return 1
-    return 0
-
-
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``human_tracker``; returns the exit code."""
     parser = argparse.ArgumentParser(
@@ -345,20 +259,16 @@ def main(argv: list[str] | None = None) -> int:
         help="output folder (default out/track/<sequence name>: a folder's or file's name, "
         "the parent's for an img/ folder)",
     )
-    track.add_argument(
-        '--cue', choices=('background', 'flow', 'none'), help='motion cue (default background)'
-    )
+    track.add_argument('--cue', choices=('background', 'flow', 'none'), help='motion cue (default background)')
     track.add_argument(
         '--skin',
         action=argparse.BooleanOptionalAction,
         help='segment skin and use it in the likelihood (default: on for --target hand)',
     )
-    track.add_argument('--colour-blur', type=float, metavar='SIGMA', help=_COLOUR_BLUR_HELP)
-    track.add_argument('--merge-distance', type=float, metavar='D', help=_MERGE_DISTANCE_HELP)
+    track.add_argument('--colour-blur', type=float, metavar='SIGMA', help=_skin_help('colour_blur'))
+    track.add_argument('--merge-distance', type=float, metavar='D', help=_skin_help('merge_distance'))
     track.add_argument('--template', help='JSON template file replacing the built-in one')
-    track.add_argument(
-        '--particles', type=int, metavar='P', help="particles of each target's filter (default 500)"
-    )
+    track.add_argument('--particles', type=int, metavar='P', help="particles of each target's filter (default 500)")
     track.add_argument(
         '--seed',
         type=int,
@@ -427,55 +337,8 @@ def main(argv: list[str] | None = None) -> int:
     importer.add_argument('--storage', choices=('mcap', 'sqlite3'), default='mcap')
     importer.set_defaults(run=_import)
 
-    topics = commands.add_parser('topics', help="the ROS graph's topics: type, publishers, subscribers, rate")
-    topics.add_argument('--seconds', type=float, default=2.0, help='how long the rates are measured (default 2)')
-    topics.set_defaults(run=_graph)
-    echo = commands.add_parser('echo', help="a topic's messages, as ros2 topic echo prints them")
-    echo.add_argument('topic', help='topic name, e.g. /diagnostics')
-    echo.add_argument('--count', type=int, default=1, help='messages to print (default 1)')
-    echo.add_argument('--timeout', type=float, default=10.0, help='seconds to wait (default 10)')
-    echo.set_defaults(run=_graph)
-    call = commands.add_parser('call', help='call a std_srvs/Trigger service (a node\'s ~/reset, bag_play\'s ~/pause)')
-    call.add_argument('service', help='service name, e.g. /tracker_node/reset')
-    call.add_argument('--timeout', type=float, default=10.0, help='seconds to wait (default 10)')
-    call.set_defaults(run=_graph)
-
-    trainer = commands.add_parser('train-skin', help='learn the skin classes of §3.2 from labelled colour samples')
-    trainer.add_argument('samples', help='text file of "B G R class" lines, class 1 skin / 2 non-skin (UCI format)')
-    # Required: nothing the package ships (its own skin_model.json) is written unless named.
-    trainer.add_argument('--out', type=Path, required=True, help='JSON file to write the classes to')
-    trainer.add_argument('--classes', type=int, default=4, help='number of skin classes (default 4)')
-    trainer.add_argument(
-        '--coverage', type=float, default=0.95, help='fraction of skin samples the classes cover (default 0.95)'
-    )
-    trainer.add_argument('--seed', type=int, default=0)
-    trainer.set_defaults(run=_train_skin)
-
-    skin = commands.add_parser('skin', help='skin labels (§3.2) of a folder of images or a video, one PNG mask each')
-    skin.add_argument('input', help='folder of images (masks keep their file stems) or video file')
-    skin.add_argument('--out', type=Path, required=True, help='folder to write the masks to (255 = skin)')
-    skin.add_argument('--model', type=Path, help='skin classes (JSON from train-skin; default: the shipped ones)')
-    skin.add_argument(
-        '--regions',
-        choices=('cells', 'pixels'),
-        default='cells',
-        help='phase 1: cells (the paper) or pixels (seed pixels grown by hysteresis: finds small skin regions)',
-    )
-    skin.add_argument(
-        '--colour-blur',
-        type=float,
-        default=0.0,
-        metavar='SIGMA',
-        help=_COLOUR_BLUR_HELP,
-    )
-    skin.add_argument('--merge-distance', type=float, default=0.0, metavar='D', help=_MERGE_DISTANCE_HELP)
-    skin.add_argument(
-        '--working-width',
-        type=int,
-        default=320,
-        help='frames wider than this are segmented at this width, as the skin stage does (0: full size)',
-    )
-    skin.set_defaults(run=_skin)
+    add_graph_commands(commands)
+    add_skin_commands(commands)
 
     options = parser.parse_args(argv)
     # What the library warns of (a truncated video, frames without colour) reaches the user.

@@ -67,3 +67,14 @@ def test_no_import_circle_among_the_modules() -> None:
         TopologicalSorter(graph).prepare()
     except CycleError as err:
         pytest.fail(f'import circle: {" -> ".join(err.args[1])}')
+
+
+def test_no_module_is_longer_than_one_reader_holds() -> None:
+    """About 400 lines at most: a module does one job (a longer one is split by concern)."""
+    longest = 410
+    long = {
+        str(path.relative_to(REPO)): lines
+        for path in (REPO / 'human_tracker').rglob('*.py')
+        if (lines := len(path.read_text().splitlines())) > longest
+    }
+    assert long == {}

@@ -78,7 +78,7 @@ class OpticalFlowNode(ImageStage):
         omega = None
         if self.angular_velocity is not None and abs(stamp - self.angular_velocity[0]) <= self.max_rotation_age * 1e9:
             omega = self.angular_velocity[1]
-        return Frame(image, stamp, self.intrinsics(image.shape[1], image.shape[0]), omega)
+        return Frame(image, stamp, self.camera.intrinsics(image.shape[1], image.shape[0]), omega)
 
     def handle_frame(self, image: np.ndarray, header: Any) -> None:
         """The motion mask of one frame, published under ``header``."""

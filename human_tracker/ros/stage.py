@@ -26,10 +26,11 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from rclpy.clock import Clock, ClockType
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 from rosbags.serde import SerdeError
-from sensor_msgs.msg import CameraInfo, CompressedImage, Image
+from sensor_msgs.msg import CompressedImage, Image
 from std_msgs.msg import Bool, Header
 
 from human_tracker.io.images import stamp_ns
+from human_tracker.ros.camera_info import CameraInfoInput
 from human_tracker.ros.common import (
     LATCHED_QOS,
     RESULT_QOS,
@@ -46,7 +47,6 @@ from human_tracker.ros.parameter_binding import ParameterBindings
 from human_tracker.ros.startup import PACKAGE_NODES
 from human_tracker.threads import default_threads, use_threads
 from human_tracker.vision.cues.stages import Frame
-from human_tracker.vision.geometry.camera import default_camera_matrix
 
 if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore
@@ -60,9 +60,6 @@ DEFERRED = object()
 INPUT_WAIT = 30.0
 # Seconds without a frame after ready before a stage says where it listens and what is published.
 NO_INPUT_WAIT = 5.0
-
-# camera_info's distortion models whose coefficients are OpenCV's (k1, k2, p1, p2, k3, ...).
-_OPENCV_DISTORTION_MODELS = ('plumb_bob', 'rational_polynomial')
 
 
 @functools.cache
@@ -97,9 +94,6 @@ class ImageStage(LifecycleNode):
         self.timer_stats = StageTimer()
         self.last_stamp_ns = -1
         self.time_resets = 0
-        self.camera_matrix: np.ndarray | None = None
-        self.rectified_matrix: np.ndarray | None = None
-        self.distortion: np.ndarray | None = None
         self.parameter_bindings = ParameterBindings(self)
         self.diagnostics_pub = self.create_publisher(DiagnosticArray, '/diagnostics', RESULT_QOS)
         period = declare(
@@ -316,38 +310,8 @@ class ImageStage(LifecycleNode):
         return Frame(image, stamp_ns(header))
 
     def use_camera_info(self) -> None:
-        """Subscribe ``camera_info``; :meth:`intrinsics` then returns its K."""
-        self.create_subscription(CameraInfo, 'camera_info', self._on_camera_info, RESULT_QOS)
-
-    def _on_camera_info(self, msg: CameraInfo) -> None:
-        k = np.asarray(msg.k, dtype=np.float64).reshape(3, 3)
-        if k[0, 0] > 0 and k[1, 1] > 0:
-            self.camera_matrix = k
-            self.rectified_matrix = np.asarray(msg.p, dtype=np.float64).reshape(3, 4)[:, :3]
-        self.distortion = None
-        if np.any(msg.d):
-            if msg.distortion_model in _OPENCV_DISTORTION_MODELS:
-                self.distortion = np.asarray(msg.d, dtype=np.float64)
-            else:
-                self.get_logger().warn(
-                    f'camera_info distortion model {msg.distortion_model!r} is not supported: pixels taken '
-                    'as undistorted (feed a rectified image, with image_rectified: true)',
-                    throttle_duration_sec=60.0,
-                )
-
-    def lens(self, width: int, height: int, rectified: bool) -> tuple[np.ndarray, np.ndarray | None]:
-        """K and the distortion coefficients D of ``camera_info`` for a raw image; for a rectified
-        one, P's intrinsics and no distortion (ROS's convention); the default K until one arrives."""
-        if self.camera_matrix is None:
-            return default_camera_matrix(width, height), None
-        if rectified:
-            usable = self.rectified_matrix is not None and self.rectified_matrix[0, 0] > 0
-            return (self.rectified_matrix if usable else self.camera_matrix), None
-        return self.camera_matrix, self.distortion
-
-    def intrinsics(self, width: int, height: int) -> np.ndarray:
-        """K from ``camera_info``, or the documented default (60° pinhole) until one arrives."""
-        return self.lens(width, height, rectified=False)[0]
+        """Subscribe ``camera_info``: :attr:`camera` then has its intrinsics."""
+        self.camera = CameraInfoInput(self)
 
     def guarded(self, work: Callable[..., object], *args: Any, **kwargs: Any) -> object:
         """Run ``work``; an unexpected error is counted as a rejected frame and logged, never raised.

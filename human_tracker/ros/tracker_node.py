@@ -254,7 +254,7 @@ class TrackerNode(ImageStage):
                 found.outcomes,
                 primary,
                 {outcome.name: self.people.slot(outcome.name).tracker for outcome in found.outcomes},
-                self.lens(size[1], size[0], self.settings.image_rectified),
+                self.camera.lens(size[1], size[0], self.settings.image_rectified),
                 self._sizes(),
                 interval,
                 depth,

@@ -18,6 +18,17 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from human_tracker.scenes.figures import (
+    BODY,
+    HAND_OUTLINE,
+    HEAD_HALF_HEIGHT,
+    HEAD_HALF_WIDTH,
+    draw_hair,
+    draw_hand,
+    draw_person,
+    head_polygon,
+    to_image,
+)
 from human_tracker.vision.geometry.camera import default_camera_matrix
 
 __all__ = ['PEOPLE_TARGETS', 'SceneSpec', 'SceneFrame', 'render_scene', 'SCENES']
@@ -31,25 +42,6 @@ HEAD_WIDTH = 0.16
 (the default camera's fx)."""
 HEAD_DEPTH = 0.2
 """A head's depth (nose to the back of the head), metres."""
-_HEAD_HALF_WIDTH = 0.5
-_HEAD_HALF_HEIGHT = 0.62
-# Neck and shoulders below a head one unit wide, centred on the origin (x right, y down).
-_BODY = np.array(
-    [
-        [-0.26, 0.45],
-        [0.26, 0.45],
-        [0.32, 0.86],
-        [1.0, 0.98],
-        [1.45, 1.25],
-        [1.7, 1.7],
-        [1.85, 8.0],
-        [-1.85, 8.0],
-        [-1.7, 1.7],
-        [-1.45, 1.25],
-        [-1.0, 0.98],
-        [-0.32, 0.86],
-    ],
-)
 
 
 @dataclass(frozen=True)
@@ -184,7 +176,7 @@ def _background(spec: SceneSpec, rng: np.random.Generator) -> np.ndarray:
                 rng.uniform(-0.1, 0.1),
             ]
         )
-        _draw_person(image, decoy, rng.uniform(60, 200, size=3), _clothes(rng), 1.0)
+        draw_person(image, decoy, rng.uniform(60, 200, size=3), _clothes(rng), 1.0)
     # Wood, cardboard, terracotta: colours the skin classes accept, shaped unlike a hand.
     for _ in range(spec.skin_like_clutter):
         colour = tuple(float(c) for c in _skin_tone(rng) * rng.uniform(0.8, 1.1))
@@ -201,164 +193,6 @@ def _background(spec: SceneSpec, rng: np.random.Generator) -> np.ndarray:
 def _skin_tone(rng: np.random.Generator) -> np.ndarray:
     """A skin colour, B, G, R."""
     return np.array([95.0, 135.0, 200.0]) + rng.uniform(-15, 15, size=3)
-
-
-def _head_polygon(state: np.ndarray) -> np.ndarray:
-    x, y, s, theta = state
-    axes = (max(1, int(round(_HEAD_HALF_WIDTH * s))), max(1, int(round(_HEAD_HALF_HEIGHT * s))))
-    return cv2.ellipse2Poly((int(round(x)), int(round(y))), axes, int(round(np.degrees(theta))), 0, 360, 5)
-
-
-def _draw_hair(canvas: np.ndarray, state: np.ndarray, value: object, line: int) -> None:
-    """Fill the hair (the top of the head's ellipse) of the head at ``state`` with ``value``."""
-    x, y, s, theta = state
-    axes = (int(round(_HEAD_HALF_WIDTH * s)), int(round(_HEAD_HALF_HEIGHT * s)))
-    cv2.ellipse(canvas, (int(round(x)), int(round(y))), axes, float(np.degrees(theta)), 195, 345, value, -1, line)
-
-
-def _to_image(points: np.ndarray, state: np.ndarray) -> np.ndarray:
-    x, y, s, theta = state
-    c, si = np.cos(theta), np.sin(theta)
-    rot = np.array([[c, -si], [si, c]])
-    return points @ rot.T * s + np.array([x, y])
-
-
-def _draw_person(
-    image: np.ndarray,
-    state: np.ndarray,
-    skin: np.ndarray,
-    shirt: np.ndarray,
-    gain: float,
-    skin_mask: np.ndarray | None = None,
-    face: bool = False,
-) -> None:
-    """Draw neck and shoulders, then the head with hair and face features, at ``state``
-    (with ``face``, the features of :func:`_draw_face`).
-
-    ``skin_mask``, when given, receives the face's skin pixels (255), hair and features excluded.
-    """
-    s = state[2]
-    body = np.round(_to_image(_BODY, state)).astype(np.int32)
-    cv2.fillPoly(image, [body], tuple(float(c) * gain for c in shirt), cv2.LINE_AA)
-    targets = [(image, tuple(float(c) * gain for c in skin), cv2.LINE_AA)]
-    if skin_mask is not None:
-        cv2.fillPoly(skin_mask, [body], 0)
-        targets.append((skin_mask, 255, cv2.LINE_8))
-    hair_colour = (30 * gain, 35 * gain, 45 * gain)
-    dark = (40 * gain, 40 * gain, 60 * gain)
-    theta = state[3]
-    features = _to_image(np.array([[-0.18, -0.05], [0.18, -0.05], [0.0, 0.3]]), state)
-    mx, my = features[2]
-    for canvas, skin_colour, line in targets:
-        hair, feature = (hair_colour, dark) if canvas is image else (0, 0)
-        cv2.fillPoly(canvas, [_head_polygon(state)], skin_colour, line)
-        if face:
-            # The hair a cap above the brows, not a wedge down to the eyes.
-            cv2.fillPoly(canvas, [np.round(_to_image(_HAIRLINE_CAP, state)).astype(np.int32)], hair, line)
-            shade = tuple(0.75 * float(c) for c in skin_colour) if canvas is image else 0
-            _draw_face(canvas, state, feature, shade, line)
-            continue
-        _draw_hair(canvas, state, hair, line)
-        for fx, fy in features[:2]:
-            cv2.circle(canvas, (int(round(fx)), int(round(fy))), max(1, int(s * 0.05)), feature, -1, line)
-        cv2.ellipse(
-            canvas,
-            (int(round(mx)), int(round(my))),
-            (max(1, int(s * 0.14)), max(1, int(s * 0.04))),
-            float(np.degrees(theta)),
-            0,
-            360,
-            feature,
-            -1,
-            line,
-        )
-
-
-# The hair of a head with a face: the head's ellipse above the brows, in the head's frame (one
-# unit wide, centred, y down).
-_CAP_ANGLES = np.linspace(0.0, 2.0 * np.pi, 73)
-_HAIRLINE_CAP = np.column_stack([_HEAD_HALF_WIDTH * np.cos(_CAP_ANGLES), _HEAD_HALF_HEIGHT * np.sin(_CAP_ANGLES)])
-_HAIRLINE_CAP = _HAIRLINE_CAP[_HAIRLINE_CAP[:, 1] < -0.24]
-# A face's features in that frame: brows (from, to), eyes (centre, half-axes), the nose's ridge
-# (from, to) and nostrils (centre, half-axes), the mouth (centre, half-axes). Drawn like this, a
-# face of 30 px and up is a face to dlib's HOG detector; two dots and a mouth are not.
-_BROWS = (((-0.3, -0.17), (-0.07, -0.19)), ((0.07, -0.19), (0.3, -0.17)))
-_EYES = (((-0.19, -0.07), (0.1, 0.045)), ((0.19, -0.07), (0.1, 0.045)))
-_NOSE = ((-0.03, -0.02), (-0.05, 0.17))
-_NOSTRILS = ((0.0, 0.19), (0.08, 0.035))
-_MOUTH = ((0.0, 0.33), (0.15, 0.045))
-
-
-def _draw_face(canvas: np.ndarray, state: np.ndarray, dark: object, shade: object, line: int) -> None:
-    """Brows, eyes and mouth in ``dark``, the nose in ``shade``, on the head at ``state``."""
-    s, degrees = state[2], float(np.degrees(state[3]))
-    thickness = max(1, int(round(0.035 * s)))
-
-    def at(point: tuple[float, float]) -> tuple[int, int]:
-        u, v = _to_image(np.array([point]), state)[0]
-        return int(round(u)), int(round(v))
-
-    def axes(half: tuple[float, float]) -> tuple[int, int]:
-        return max(1, int(round(half[0] * s))), max(1, int(round(half[1] * s)))
-
-    for start, end in _BROWS:
-        cv2.line(canvas, at(start), at(end), dark, thickness, line)
-    for centre, half in (*_EYES, _MOUTH):
-        cv2.ellipse(canvas, at(centre), axes(half), degrees, 0, 360, dark, -1, line)
-    cv2.line(canvas, at(_NOSE[0]), at(_NOSE[1]), shade, thickness, line)
-    cv2.ellipse(canvas, at(_NOSTRILS[0]), axes(_NOSTRILS[1]), degrees, 0, 180, shade, thickness, line)
-
-
-# An open hand one unit wide in the hand template's frame (x right, y down, hand centred
-# on the origin): palm, forearm, and (base, tip, width) of the thumb and the four fingers.
-_PALM = ((0.07, 0.22), (0.37, 0.38))
-_FOREARM = np.array([[-0.16, 0.45], [0.40, 0.45], [0.32, 1.25], [-0.10, 1.25]])
-_SLEEVE = np.array([[-0.16, 1.05], [0.36, 1.05], [0.45, 6.0], [-0.25, 6.0]])
-_FINGERS = (
-    ((-0.22, 0.28), (-0.42, -0.02), 0.14),
-    ((-0.08, -0.02), (-0.12, -0.46), 0.13),
-    ((0.09, -0.05), (0.11, -0.55), 0.13),
-    ((0.26, -0.02), (0.28, -0.46), 0.12),
-    ((0.39, 0.10), (0.44, -0.27), 0.11),
-)
-
-
-def _hand_outline_points() -> np.ndarray:
-    """Points on the hand's outline above the wrist, hand frame: its ground-truth box is theirs."""
-    angles = np.linspace(0.0, 2.0 * np.pi, 72, endpoint=False)
-    palm = np.stack([_PALM[0][0] + _PALM[1][0] * np.cos(angles), _PALM[0][1] + _PALM[1][1] * np.sin(angles)], 1)
-    points = [palm]
-    for base, tip, width in _FINGERS:
-        base, tip = np.asarray(base), np.asarray(tip)
-        along = (tip - base) / np.linalg.norm(tip - base)
-        across = np.array([-along[1], along[0]]) * width / 2
-        points.append(np.array([base + across, base - across, tip + across, tip - across, tip + along * width / 2]))
-    return np.vstack(points)
-
-
-_HAND_OUTLINE = _hand_outline_points()
-
-
-def _draw_hand(
-    image: np.ndarray, state: np.ndarray, skin: np.ndarray, sleeve: np.ndarray, gain: float, skin_mask: np.ndarray
-) -> None:
-    """Draw an open hand on its forearm at ``state``; its skin pixels go to ``skin_mask``."""
-    s = state[2]
-    theta = float(np.degrees(state[3]))
-    palm_centre = tuple(int(round(v)) for v in _to_image(np.array([_PALM[0]]), state)[0])
-    palm_axes = (max(1, int(round(_PALM[1][0] * s))), max(1, int(round(_PALM[1][1] * s))))
-    forearm = np.round(_to_image(_FOREARM, state)).astype(np.int32)
-    sleeve_polygon = np.round(_to_image(_SLEEVE, state)).astype(np.int32)
-    for canvas, colour, line in ((image, tuple(skin * gain), cv2.LINE_AA), (skin_mask, 255, cv2.LINE_8)):
-        cv2.fillPoly(canvas, [forearm], colour, line)
-        cv2.ellipse(canvas, palm_centre, palm_axes, theta, 0, 360, colour, -1, line)
-        for base, tip, width in _FINGERS:
-            ends = np.round(_to_image(np.array([base, tip]), state)).astype(np.int32)
-            thickness = max(1, int(round(width * s)))
-            cv2.line(canvas, tuple(ends[0]), tuple(ends[1]), colour, thickness, line)
-            cv2.circle(canvas, tuple(ends[1]), thickness // 2, colour, -1, line)
-    cv2.fillPoly(image, [sleeve_polygon], tuple(sleeve * gain), cv2.LINE_AA)
-    cv2.fillPoly(skin_mask, [sleeve_polygon], 0)
 
 
 def _trajectory(spec: SceneSpec, motion_time: float) -> np.ndarray:
@@ -401,17 +235,17 @@ def _depth_image(spec: SceneSpec, state: np.ndarray | None, rng: np.random.Gener
     if state is not None:
         distance = default_camera_matrix(spec.width, spec.height)[0, 0] * HEAD_WIDTH / state[2]
         person = np.zeros(depth.shape, np.uint8)
-        cv2.fillPoly(person, [np.round(_to_image(_BODY, state)).astype(np.int32)], 1)
+        cv2.fillPoly(person, [np.round(to_image(BODY, state)).astype(np.int32)], 1)
         depth[person > 0] = distance + 0.05  # the shoulders a little behind the face
         head = np.zeros(depth.shape, np.uint8)
-        cv2.fillPoly(head, [_head_polygon(state)], 1)
+        cv2.fillPoly(head, [head_polygon(state)], 1)
         # The face bulges towards the camera: an ellipsoid HEAD_DEPTH / 2 deep around the head's
         # centre, which lies `distance` away.
         x, y, s, _ = state
         rows, columns = np.nonzero(head)
-        across = ((columns - x) / (_HEAD_HALF_WIDTH * s)) ** 2 + ((rows - y) / (_HEAD_HALF_HEIGHT * s)) ** 2
+        across = ((columns - x) / (HEAD_HALF_WIDTH * s)) ** 2 + ((rows - y) / (HEAD_HALF_HEIGHT * s)) ** 2
         depth[rows, columns] = distance - 0.5 * HEAD_DEPTH * np.sqrt(np.clip(1.0 - across, 0.0, 1.0))
-        _draw_hair(hair, state, 1, cv2.LINE_8)
+        draw_hair(hair, state, 1, cv2.LINE_8)
     depth += rng.normal(0.0, 1.0, depth.shape) * 0.0015 * depth**2
     holes = (rng.random(depth.shape) < 0.03) | ((hair > 0) & (rng.random(depth.shape) < 0.5))
     depth[holes] = 0.0
@@ -454,27 +288,27 @@ def render_scene(spec: SceneSpec) -> Iterator[SceneFrame]:
             person = np.array(
                 [spec.width * (0.22 - step + 0.01 * np.sin(motion_time)), spec.height * 0.3, spec.head_width, 0.0]
             )
-            _draw_person(frame, person, skin, shirt, gain, skin_mask, spec.faces)
+            draw_person(frame, person, skin, shirt, gain, skin_mask, spec.faces)
             state = _hand_trajectory(spec, motion_time)
             if visible:
-                _draw_hand(frame, state, skin, sleeve, gain, skin_mask)
-            box = _box(_to_image(_HAND_OUTLINE, state)) if visible else None
+                draw_hand(frame, state, skin, sleeve, gain, skin_mask)
+            box = _box(to_image(HAND_OUTLINE, state)) if visible else None
             targets = {'person_1/hand': box}
             if spec.target == 'people':
                 walker = _walker(spec, index)
-                _draw_person(frame, walker, walker_skin, walker_shirt, gain, skin_mask, spec.faces)
+                draw_person(frame, walker, walker_skin, walker_shirt, gain, skin_mask, spec.faces)
                 in_view = 0.0 <= walker[0] < spec.width
                 targets = {
-                    'person_1/head': _box(_head_polygon(person)),
+                    'person_1/head': _box(head_polygon(person)),
                     'person_1/hand': box,
-                    'person_2/head': _box(_head_polygon(walker)) if in_view else None,
+                    'person_2/head': _box(head_polygon(walker)) if in_view else None,
                 }
                 state, box = person, targets['person_1/head']
         else:
             state = _trajectory(spec, motion_time)
             if visible:
-                _draw_person(frame, state, skin, shirt, gain, skin_mask, spec.faces)
-            box = _box(_head_polygon(state)) if visible else None
+                draw_person(frame, state, skin, shirt, gain, skin_mask, spec.faces)
+            box = _box(head_polygon(state)) if visible else None
             targets = {'person_1/head': box}
         noisy = frame.astype(np.float32) + noise_rng.normal(0, spec.noise_sigma, size=frame.shape)
         image = np.clip(noisy, 0, 255).astype(np.uint8)

@@ -109,7 +109,8 @@ class SkinParameters:
     min_mixed_pixels: int = parameter(64, 'Smallest refused cluster that is split, pixels.', low=1, high=10000000)
     merge_distance: float = parameter(
         0.0,
-        'Adjacent candidate cells join one region only within this (I2, I3) distance; 0: any (the paper).',
+        'Adjacent candidate cells join one region only within this (I2, I3) distance; 0: any (the paper); 10 '
+        'keeps a hand apart from a skin-coloured surface of another shade.',
         low=0.0,
         high=1000.0,
     )

@@ -19,8 +19,9 @@ from sensor_msgs.msg import CompressedImage, Image
 from human_tracker.drawing import id_colour
 from human_tracker.io.bags import read_frames
 from human_tracker.ros.background_node import BackgroundNode
-from human_tracker.ros.common import PublisherSequence
+from human_tracker.ros.common import PublisherSequence, diagnostic_status
 from human_tracker.ros.image_conversion import ENCODINGS, array_to_compressed, array_to_image, message_to_bgr8
+from human_tracker.ros.pipeline import CameraSubscriber, build_pipeline
 from human_tracker.ros.tracker_node import TrackerNode
 from human_tracker.vision.cues.skin import SkinSegmenter, default_skin_model
 
@@ -253,3 +254,58 @@ def test_a_gap_in_one_publishers_sequence_numbers_counts_the_frames_missed() -> 
     assert sequence.missed(1, 1) == 0 and sequence.missed(4, 1) == 2  # restarted, then a gap
     assert sequence.missed(9, 2) == 0 and sequence.missed(20, 1) == 0  # two publishers: unknown
     assert sequence.missed(None, 1) == 0 and sequence.missed(30, 1) == 0
+
+
+def test_the_pipelines_tracker_counts_every_frame_it_never_processed() -> None:
+    """In ``pipeline`` the camera subscriber takes the frames: a frame it could not read, a
+    duplicate it skipped and the frames a newer one replaced in its queue never reach the
+    tracker, whose ``frames_dropped`` counts them all: received + dropped = sent."""
+    rclpy.init()
+    nodes = build_pipeline()
+    camera = next(node for node in nodes if isinstance(node, CameraSubscriber))
+    tracker = next(node for node in nodes if isinstance(node, TrackerNode))
+    source = Node('camera')
+    publisher = source.create_publisher(Image, 'image', QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT))
+    executor = SingleThreadedExecutor()
+    for node in (*nodes, source):
+        executor.add_node(node)
+    rng = np.random.default_rng(3)
+    frames = [array_to_image(rng.integers(0, 255, (48, 64, 3), dtype=np.uint8), 'bgr8') for _ in range(24)]
+    for index, msg in enumerate(frames, start=1):
+        msg.header.stamp.sec = index
+    frames[1].data = frames[1].data[:100]  # cannot be read: rejected by the camera subscriber
+    frames[2].header.stamp.sec = frames[1].header.stamp.sec - 1  # the first frame's stamp: a duplicate
+
+    def publish_and_wait(msg: Image) -> None:
+        received = camera.counters.received
+        publisher.publish(msg)
+        deadline = time.monotonic() + 20.0
+        while camera.counters.received == received and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+
+    try:
+        deadline = time.monotonic() + 20.0
+        while publisher.get_subscription_count() < 1 and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+        for msg in frames[:3]:
+            publish_and_wait(msg)
+        for msg in frames[3:-1]:  # nothing spins meanwhile: a busy pipeline
+            publisher.publish(msg)
+            time.sleep(0.002)
+        for _ in range(20):
+            executor.spin_once(timeout_sec=0.02)
+        publish_and_wait(frames[-1])  # the last one shows how many came before it
+        status = diagnostic_status(tracker, tracker.counters, tracker.timer_stats, state='OK')
+        diagnostics = {kv.key: kv.value for kv in status.values}
+    finally:
+        executor.shutdown()
+        for node in (*nodes, source):
+            node.destroy_node()
+        rclpy.try_shutdown()
+    seen, passed = camera.counters, tracker.counters
+    print(f'{len(frames)} sent: camera subscriber {seen}; tracker {passed}')
+    assert seen.rejected == 1 and seen.skipped == 1 and seen.dropped > 0
+    assert seen.received + seen.dropped == len(frames)
+    assert passed.received == seen.processed and passed.dropped == seen.dropped + 2
+    assert passed.received + passed.dropped == len(frames)
+    assert int(diagnostics['frames_dropped']) == passed.dropped

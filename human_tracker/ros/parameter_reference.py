@@ -21,7 +21,6 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 
 from human_tracker.ros.background_node import BackgroundNode
@@ -29,7 +28,7 @@ from human_tracker.ros.optical_flow_node import OpticalFlowNode
 from human_tracker.ros.pipeline import build_pipeline
 from human_tracker.ros.run import described
 from human_tracker.ros.skin_node import SkinNode
-from human_tracker.ros.startup import is_rclpy_parameter
+from human_tracker.ros.startup import descriptor_range, is_rclpy_parameter
 from human_tracker.ros.tracker_node import TrackerNode
 
 __all__ = ['Declaration', 'declarations', 'markdown_tables', 'parameters_yaml']
@@ -85,13 +84,6 @@ def _plain(value: Any) -> Any:
     return list(value) if hasattr(value, 'tolist') or isinstance(value, (tuple, list)) else value
 
 
-def _range(descriptor: ParameterDescriptor) -> tuple[float | None, float | None]:
-    for ranges in (descriptor.integer_range, descriptor.floating_point_range):
-        if ranges:
-            return ranges[0].from_value, ranges[0].to_value
-    return None, None
-
-
 def _declared_by(build: Callable[[], list[Node]], argv: list[str]) -> dict[str, dict[str, Declaration]]:
     found: dict[str, dict[str, Declaration]] = {}
     with described(build, argv) as nodes:
@@ -99,7 +91,7 @@ def _declared_by(build: Callable[[], list[Node]], argv: list[str]) -> dict[str, 
             names = sorted(n for n in node.get_parameters_by_prefix('') if not is_rclpy_parameter(n))
             rows = found.setdefault(node.get_name(), {})
             for name, descriptor in zip(names, node.describe_parameters(names), strict=True):
-                low, high = _range(descriptor)
+                low, high = descriptor_range(descriptor)
                 rows[name] = Declaration(
                     name,
                     _plain(node.get_parameter(name).value),

@@ -70,6 +70,20 @@ class CameraSubscriber(ImageStage):
         """Time went backwards: the cue stages start over (the tracker resets its targets itself)."""
         self.tracker.frame_pipeline.stages.reset()
 
+    def on_wire_image(self, typename: str, data: bytes) -> None:
+        """Read and process one frame, then tell the stages after this one how many frames never
+        reached them (:meth:`_count_what_never_arrived`)."""
+        super().on_wire_image(typename, data)
+        self._count_what_never_arrived()
+
+    def _count_what_never_arrived(self) -> None:
+        """Each stage's ``frames_dropped``: the frames the camera sent that never reached it,
+        whatever the cause: dropped before this subscriber, or received here and not passed on
+        (rejected, a duplicate, inactive), so that its received + dropped is what was sent."""
+        never = self.counters.dropped + self.counters.received - self.counters.processed
+        for node in (*self.cue_nodes, self.tracker):
+            node.counters.dropped = never
+
     def handle_frame(self, image: np.ndarray, header: Any) -> object:
         # The flow stage's frame carries camera_info's K and the camera's angular velocity.
         frame = (self.motion_stage or self).frame(image, header)

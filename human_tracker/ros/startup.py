@@ -36,6 +36,7 @@ __all__ = [
     'declare_strict',
     'undeclared_parameters',
     'check_configuration',
+    'descriptor_range',
     'is_rclpy_parameter',
     'usage',
     'quiet_discovery',
@@ -255,11 +256,17 @@ def check_configuration(nodes: Sequence[Node], argv: Sequence[str]) -> None:
         logger.warn(f'{problem}: ignored (strict is false)')
 
 
-def _range(descriptor: ParameterDescriptor) -> str:
+def descriptor_range(descriptor: ParameterDescriptor) -> tuple[float | None, float | None]:
+    """The least and largest value a parameter's descriptor allows; (None, None): no range."""
     for ranges in (descriptor.integer_range, descriptor.floating_point_range):
         if ranges:
-            return f' [{ranges[0].from_value:g}, {ranges[0].to_value:g}]'
-    return ''
+            return ranges[0].from_value, ranges[0].to_value
+    return None, None
+
+
+def _range(descriptor: ParameterDescriptor) -> str:
+    low, high = descriptor_range(descriptor)
+    return '' if low is None else f' [{low:g}, {high:g}]'
 
 
 _HIDDEN_TOPICS = ('/rosout', '/parameter_events')

@@ -77,9 +77,13 @@ def test_the_graph_can_be_looked_at_from_the_virtualenv(tmp_path: Path, capsys) 
         deadline = time.monotonic() + 60.0
         while 'ready' not in node.output() and time.monotonic() < deadline:
             time.sleep(0.2)
-        assert main(['topics']) == 0
-        listed = capsys.readouterr().out
-        line = next((line for line in listed.splitlines() if line.startswith('/diagnostics ')), listed)
+        # A busy machine's discovery may not have reached the node on the first look: look again.
+        for _ in range(3):
+            assert main(['topics']) == 0
+            listed = capsys.readouterr().out
+            line = next((line for line in listed.splitlines() if line.startswith('/diagnostics ')), listed)
+            if line.startswith('/diagnostics '):
+                break
         assert re.fullmatch(r'/diagnostics \[diagnostic_msgs/msg/DiagnosticArray\] [1-9]\d* publishers, .*Hz', line)
         assert not line.endswith(' 0.0 Hz'), line
         assert main(['echo', '/diagnostics']) == 0

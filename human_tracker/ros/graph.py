@@ -85,29 +85,42 @@ def _spin_for(executor: SingleThreadedExecutor, seconds: float, done: Callable[[
 
 def topics(seconds: float = 2.0) -> list[str]:
     """One line per topic of the graph: its name, type, publishers and subscribers, and the rate
-    its messages arrived at over ``seconds`` (Hz)."""
+    its messages arrived at over ``seconds`` (Hz). A topic discovered during those seconds (a
+    busy machine's discovery comes in pieces) is listed too, its rate measured from then."""
     lines = []
     with _graph_node() as (node, executor):
         counts: dict[str, int] = {}
-        for name, types in node.get_topic_names_and_types():
-            if name in ('/rosout', '/parameter_events'):
-                continue
-            try:
-                kind = message_class(types[0])
-            except ValueError:
-                continue
-            counts[name] = 0
-            node.create_subscription(
-                kind, name, lambda _, n=name: counts.__setitem__(n, counts[n] + 1), qos_profile_sensor_data, raw=True
-            )
-        _spin_for(executor, seconds)
+        since: dict[str, float] = {}
+
+        def watch_new_topics() -> None:
+            for name, types in node.get_topic_names_and_types():
+                if name in since or name in ('/rosout', '/parameter_events'):
+                    continue
+                since[name] = time.monotonic()
+                try:
+                    kind = message_class(types[0])
+                except ValueError:
+                    continue
+                counts[name] = 0
+                node.create_subscription(
+                    kind,
+                    name,
+                    lambda _, n=name: counts.__setitem__(n, counts[n] + 1),
+                    qos_profile_sensor_data,
+                    raw=True,
+                )
+
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            watch_new_topics()
+            _spin_for(executor, min(0.25, max(0.0, end - time.monotonic())))
         for name, types in sorted(node.get_topic_names_and_types()):
             if name not in counts:
                 continue
             publishers, subscribers = node.count_publishers(name), node.count_subscribers(name) - 1
+            rate = counts[name] / max(end - since[name], 0.25)
             lines.append(
-                f'{name} [{", ".join(types)}] {publishers} publishers, {subscribers} subscribers, '
-                f'{counts[name] / seconds:.1f} Hz'
+                f'{name} [{", ".join(types)}] {publishers} publishers, {subscribers} subscribers, {rate:.1f} Hz'
             )
     return lines
 

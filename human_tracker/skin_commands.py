@@ -8,7 +8,7 @@ import json
 import sys
 from pathlib import Path
 
-from human_tracker.vision.checks import declared_fields
+from human_tracker.vision.checks import description_of
 from human_tracker.vision.cues.skin.parameters import SkinParameters
 
 __all__ = ['add_skin_commands', 'skin_help']
@@ -16,7 +16,7 @@ __all__ = ['add_skin_commands', 'skin_help']
 
 def skin_help(name: str) -> str:
     """The help of an option that sets the skin stage's ``name``: its declared meaning."""
-    return dict(declared_fields(SkinParameters))[name].description
+    return description_of(SkinParameters, name)
 
 
 def _train_skin(options: argparse.Namespace) -> int:

@@ -23,7 +23,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rclpy.signals import SignalHandlerOptions
 
 from human_tracker.ros.startup import init_rclpy
-from human_tracker.vision.checks import declared_fields
+from human_tracker.vision.checks import description_of
 from human_tracker.vision.track.parameters import FrameParameters
 
 __all__ = [
@@ -124,7 +124,7 @@ def declare(
 
 
 # Every stage reduces its frames as the tracker does: one meaning, the tracker's field's.
-WORKING_WIDTH_DESCRIPTION = dict(declared_fields(FrameParameters))['working_width'].description
+WORKING_WIDTH_DESCRIPTION = description_of(FrameParameters, 'working_width')
 
 
 def declare_working_width(node: Node) -> int:

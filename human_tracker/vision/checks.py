@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, fields
 from typing import Any
 
-__all__ = ['Declared', 'check_choices', 'check_within', 'declared_fields', 'parameter', 'shares']
+__all__ = ['Declared', 'check_choices', 'check_within', 'declared_fields', 'description_of', 'parameter', 'shares']
 
 
 @dataclass(frozen=True)
@@ -42,6 +42,11 @@ def parameter(
 def declared_fields(parameters: Any) -> list[tuple[str, Declared]]:
     """The declared fields of a parameter dataclass (or instance), in field order."""
     return [(f.name, f.metadata['declared']) for f in fields(parameters) if 'declared' in f.metadata]
+
+
+def description_of(parameters: Any, name: str) -> str:
+    """The declared meaning of the field ``name`` of a parameter dataclass (or instance)."""
+    return dict(declared_fields(parameters))[name].description
 
 
 def check_choices(parameters: object, **allowed: tuple[str, ...]) -> None:

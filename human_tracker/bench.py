@@ -65,6 +65,7 @@ from human_tracker.threads import default_threads, use_threads
 
 __all__ = ['main']
 
+
 def _table(rows: list[dict[str, object]], columns: list[str]) -> str:
     lines = ['| ' + ' | '.join(columns) + ' |', '|' + '---|' * len(columns)]
     for row in rows:

@@ -207,7 +207,7 @@ def run_demo(bag: Path, out: Path, *, domain_id: int | None = None, rate: float 
         'frames': len(frames),
         'poses_received': len(collector.poses),
         'frame_ids': sorted(collector.frame_ids),
-        'start': f'from the first frame\'s ground-truth box {list(first.ground_truth)} (init_box)',
+        'start': f"from the first frame's ground-truth box {list(first.ground_truth)} (init_box)",
         **_speed(collector, frame_arrivals, frames),
         **summarise(predicted, [f.ground_truth for f in frames]),
     }
@@ -264,7 +264,7 @@ def main(argv: list[str] | None = None) -> int:
     print(
         f'demo: processing per frame {stages} ({summary["processing_fps"]} frames/s of processing); '
         f'latency from frame to pose {summary["latency_ms_median"]} ms median, {summary["latency_ms_p95"]} ms p95 '
-        f'(replayed at {options.rate}x the camera\'s pace)'
+        f"(replayed at {options.rate}x the camera's pace)"
     )
     print(f'demo: wrote {options.out}/tracking.mp4, poses.csv, summary.json')
     problems = demo_problems(summary, options.min_precision)

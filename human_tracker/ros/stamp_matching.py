@@ -122,12 +122,17 @@ class MaskMatcher:
         return dropped
 
 
+# The CPU share of a gap above which this process, not the camera, made it. An idle node uses
+# next to nothing; a busy one sharing two cores with three other busy processes still gets half.
+STALL_SHARE = 0.25
+
+
 class FrameGaps:
     """The time between the frames tracked, by their stamps.
 
     A gap over ``max_gap`` is told apart: the camera paused (this process idled), or this
-    process stalled (it was busy for more than half of the gap: the camera's frames were dropped
-    meanwhile), counted in ``stalls``. Measured from the start of the last frame tracked, so its
+    process stalled (it was busy for more than :data:`STALL_SHARE` of the gap: the camera's frames
+    were dropped meanwhile), counted in ``stalls``. Measured from the start of the last frame tracked, so its
     own processing is included.
 
     Attributes:
@@ -148,7 +153,7 @@ class FrameGaps:
         cause = None
         if interval > max_gap:
             busy = (cpu - self._started[1]) / max(wall - self._started[0], 1e-6)
-            if busy > 0.5:
+            if busy > STALL_SHARE:
                 self.stalls += 1
                 cause = f'this node was busy for {interval:.2f} s (its own stall: frames were dropped meanwhile)'
             else:

@@ -1,5 +1,4 @@
-"""People: a head and its hands per person, each target in a slot with its id.
-"""
+"""People: a head and its hands per person, each target in a slot with its id."""
 
 from __future__ import annotations
 

@@ -16,7 +16,7 @@ setup(
         (f'share/{PACKAGE}/launch', glob('launch/*.launch.py')),
         (f'share/{PACKAGE}/config', glob('config/*.yaml') + glob('config/*.xml') + glob('config/*.rviz')),
     ],
-    package_data={'human_tracker': ['data/*.json']},
+    package_data={'human_tracker': ['data/*.json', 'data/*.onnx', 'data/*.md', 'data/*.LICENSE']},
     install_requires=['setuptools'],
     extras_require={'test': ['pytest']},
     zip_safe=True,

@@ -44,7 +44,7 @@ from human_tracker.io.poses import read_poses, read_tracks
 from human_tracker.offline import TrackOptions, track_sequence
 from human_tracker.ros.collector import PoseCollector
 from human_tracker.ros.processes import NodeProcess
-from human_tracker.ros.standard_outputs import frame_name, target_name
+from human_tracker.ros.standard_outputs import frame_name, gaze_frame_name, target_name
 from human_tracker.scenes.generator import HEAD_WIDTH, SCENES, render_scene
 from human_tracker.vision.filter.contour_filter import box_from_state
 from human_tracker.vision.filter.templates import ContourTemplate, fit_template, hand, head_and_shoulders
@@ -440,18 +440,19 @@ def _target_of(odometry: Odometry) -> tuple[str, str, int]:
     return person, kind, int(ident)
 
 
-def _lookup(transforms: list[Any], target: str, source: str) -> np.ndarray:
-    """tf2's lookup on one stamp's transforms: ``source``'s origin in ``target``, along the
-    chain of parents from ``source`` up to ``target``."""
+def _lookup(transforms: list[Any], target: str, source: str) -> tuple[np.ndarray, Rotation]:
+    """tf2's lookup on one stamp's transforms: ``source``'s origin and axes in ``target``, along
+    the chain of parents from ``source`` up to ``target``."""
     parent_of = {t.child_frame_id: t for t in transforms}
-    position = np.zeros(3)
+    position, axes = np.zeros(3), Rotation.identity()
     frame = source
     while frame != target:
         link = parent_of[frame].transform  # KeyError: no chain to the target
         turn = Rotation.from_quat([link.rotation.x, link.rotation.y, link.rotation.z, link.rotation.w])
         position = turn.apply(position) + [link.translation.x, link.translation.y, link.translation.z]
+        axes = turn * axes
         frame = parent_of[frame].header.frame_id
-    return position
+    return position, axes
 
 
 def _check_standard_outputs(
@@ -459,7 +460,8 @@ def _check_standard_outputs(
 ) -> None:
     """What the people_crossing pipeline published on the standard outputs, as their consumers
     read it: each TRACKING target of ``targets`` has a TF frame whose tf2 lookup is its pose (to
-    1 mm), and the same id on ``detections`` and ``detections_3d`` (the 3-D detection at its pose);
+    1 mm), a head's with a REP-155 gaze frame at its origin looking along the face frame's x (its
+    z), and the same id on ``detections`` and ``detections_3d`` (the 3-D detection at its pose);
     a ROS4HRI client sees each head's face id listed from its third frame TRACKING in a row to
     its last, each region it gets the offline command's box of that head on that frame (within
     the image)."""
@@ -484,8 +486,14 @@ def _check_standard_outputs(
             assert classes == {kind}
             expected = odometry.pose.pose.position
             assert _same_point(metric[name].results[0].pose.pose.position, expected)
-            position = _lookup(collector.transforms[stamp], odometry.header.frame_id, frame_name(kind, ident))
+            optical = odometry.header.frame_id
+            position, axes = _lookup(collector.transforms[stamp], optical, frame_name(kind, ident))
             np.testing.assert_allclose(position, (expected.x, expected.y, expected.z), atol=1e-3)
+            if kind == 'head':
+                gaze_at, gaze = _lookup(collector.transforms[stamp], optical, gaze_frame_name(ident))
+                np.testing.assert_allclose(gaze_at, position, atol=1e-9)
+                np.testing.assert_allclose(gaze.apply([0, 0, 1]), axes.apply([1, 0, 0]), atol=1e-9)
+                np.testing.assert_allclose(gaze.apply([1, 0, 0]), axes.apply([0, -1, 0]), atol=1e-9)
         heads = {ident for kind, ident in targets if kind == 'head'}
         heads_before.append(heads)
         # Listed on the frames it has been TRACKING for the last face_confirm_frames (3) in a row.

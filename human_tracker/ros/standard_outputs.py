@@ -5,7 +5,9 @@
   child of the image's ``frame_id`` (its optical frame), named ``face_<id>`` for a head (REP-155)
   and ``hand_<id>`` for a hand, behind an optional prefix. A face frame follows REP-155: x out of
   the face, y to the person's left, z up; a hand frame is the optical frame turned by the
-  silhouette's angle θ, as ``pose``.
+  silhouette's angle θ, as ``pose``. Each face frame has a ``gaze_<id>`` child (REP-155's gaze
+  frame: z along the gaze, x to the person's right, y down, as an optical frame), where the head
+  looks: the face frame's x.
 - **ROS4HRI faces** (REP-155): ``/humans/faces/tracked`` (hri_msgs/IdsList) on every frame,
   and ``/humans/faces/<id>/roi`` (hri_msgs/NormalizedRegionOfInterest2D) per face; an id is
   published once its head has been TRACKING ``confirm_frames`` frames in a row, and leaves the
@@ -47,6 +49,7 @@ __all__ = [
     'detection_3d',
     'face_orientation',
     'frame_name',
+    'gaze_frame_name',
     'normalised_region',
     'target_name',
 ]
@@ -64,6 +67,11 @@ _YAW = {Facing.TOWARD: 0.0, Facing.AWAY: np.pi}
 # z forward): its x (out of the face) is -z, its y (the person's left, the image's right) is
 # +x, its z (up) is -y. As a quaternion (x, y, z, w).
 _FACING_CAMERA = (0.5, 0.5, -0.5, 0.5)
+
+
+# REP-155's gaze frame in its face frame: its z (the gaze) is the face's x, its x the face's -y
+# (the person's right), its y the face's -z (down). As a quaternion (x, y, z, w).
+_GAZE_IN_FACE = (0.5, -0.5, 0.5, -0.5)
 
 
 def _turn(a: tuple[float, ...], b: tuple[float, ...]) -> tuple[float, ...]:
@@ -115,6 +123,11 @@ def frame_name(kind: str, ident: int, prefix: str = '') -> str:
     return f'{prefix}{_FRAME_WORD[kind]}_{target_name(kind, ident)}'
 
 
+def gaze_frame_name(ident: int, prefix: str = '') -> str:
+    """The TF frame of head ``ident``'s gaze: ``<prefix>gaze_<id>`` (REP-155), child of its face frame."""
+    return f'{prefix}gaze_{target_name("head", ident)}'
+
+
 def face_orientation(theta: float, facing: Facing | None) -> Quaternion:
     """The orientation in the optical frame of REP-155's face frame of a head tilted by ``theta``
     (radians, about the optical axis, as ``pose``) and turned as ``facing`` says: toward the
@@ -154,6 +167,15 @@ def _transform(header: Any, child: str, target: PublishedTarget) -> TransformSta
     else:
         transform.transform.rotation = target.pose.pose.orientation
     return transform
+
+
+def _gaze(header: Any, face: str, ident: int, prefix: str) -> TransformStamped:
+    """Head ``ident``'s gaze frame under its ``face`` frame: at its origin, looking along its x."""
+    gaze = TransformStamped(child_frame_id=gaze_frame_name(ident, prefix))
+    gaze.header.stamp, gaze.header.frame_id = header.stamp, face
+    x, y, z, w = _GAZE_IN_FACE
+    gaze.transform.rotation = Quaternion(x=x, y=y, z=z, w=w)
+    return gaze
 
 
 def _hypothesis(target: PublishedTarget, pose: PoseWithCovariance | None = None) -> ObjectHypothesisWithPose:
@@ -209,6 +231,11 @@ class StandardOutputs:
         """Every output of one frame whose TRACKING targets are ``targets`` (image of ``shape``)."""
         if self.tf_pub is not None and targets:
             transforms = [_transform(header, frame_name(t.kind, t.id, self.frame_prefix), t) for t in targets]
+            transforms += [
+                _gaze(header, frame_name(t.kind, t.id, self.frame_prefix), t.id, self.frame_prefix)
+                for t in targets
+                if t.kind == 'head'
+            ]
             self.tf_pub.publish(TFMessage(transforms=transforms))
         flat = Detection2DArray(header=header, detections=[detection_2d(header, t) for t in targets])
         self.detections_pub.publish(flat)

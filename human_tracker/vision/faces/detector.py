@@ -40,12 +40,16 @@ class Detection(NamedTuple):
             face found on an earlier frame, carried to where it is expected on this one.
         view: Which of dlib's filters found it: 0 a face looking toward the camera, 1 and 2
             looking to its left and right, 3 and 4 toward the camera, turned in the image.
+        landmarks: Five ``(x, y)`` points, pixels as ``box``, from a detector that gives them
+            (:mod:`~human_tracker.vision.faces.yunet`): the eyes (the person's right, then
+            left), the nose tip, the mouth's corners; empty from dlib's.
     """
 
     box: tuple[float, float, float, float]
     score: float
     carried: tuple[float, float] = (0.0, 0.0)
     view: int = 0
+    landmarks: tuple[tuple[float, float], ...] = ()
 
 
 def face_detector_available() -> bool:

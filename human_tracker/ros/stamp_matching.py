@@ -132,8 +132,8 @@ class FrameGaps:
 
     A gap over ``max_gap`` is told apart: the camera paused (this process idled), or this
     process stalled (it was busy for more than :data:`STALL_SHARE` of the gap: the camera's frames
-    were dropped meanwhile), counted in ``stalls``. Measured from the start of the last frame tracked, so its
-    own processing is included.
+    were dropped meanwhile), counted in ``stalls``. Measured from the start of the last frame
+    tracked, so its own processing is included.
 
     Attributes:
         last_stamp: The stamp of the last frame tracked, ns (-1: none yet).

@@ -230,12 +230,12 @@ class StandardOutputs:
     def publish(self, header: Any, shape: tuple[int, ...], targets: list[PublishedTarget]) -> None:
         """Every output of one frame whose TRACKING targets are ``targets`` (image of ``shape``)."""
         if self.tf_pub is not None and targets:
-            transforms = [_transform(header, frame_name(t.kind, t.id, self.frame_prefix), t) for t in targets]
-            transforms += [
-                _gaze(header, frame_name(t.kind, t.id, self.frame_prefix), t.id, self.frame_prefix)
-                for t in targets
-                if t.kind == 'head'
-            ]
+            transforms = []
+            for target in targets:
+                name = frame_name(target.kind, target.id, self.frame_prefix)
+                transforms.append(_transform(header, name, target))
+                if target.kind == 'head':
+                    transforms.append(_gaze(header, name, target.id, self.frame_prefix))
             self.tf_pub.publish(TFMessage(transforms=transforms))
         flat = Detection2DArray(header=header, detections=[detection_2d(header, t) for t in targets])
         self.detections_pub.publish(flat)

@@ -4,8 +4,8 @@ a small CNN that gives each face a box, a score in [0, 1] and five landmarks, fr
 provenance); nothing is downloaded at run time. It runs on ``onnxruntime`` with one thread, the
 same on a virtualenv's OpenCV 5 and a robot's apt OpenCV 4.6 (whose DNN module cannot load this
 model); the network's outputs are decoded here as OpenCV's ``cv2.FaceDetectorYN`` decodes them
-(``test_face_detector.py`` compares the two). Measured here (``../shared/notes/face-detection.md``):
-3.4 ms a whole 320x240 frame, about a fifth of dlib's HOG detector.
+(``test_face_detector.py`` compares the two). Its cost and what it finds against dlib's HOG
+detector: ``../shared/notes/face-detection.md``.
 
 Not yet the tracker's face evidence (dlib's detector is, :mod:`~human_tracker.vision.faces.detector`):
 swapped in, it traded sequences (docs/decisions/yunet-faces.md).
@@ -18,7 +18,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from human_tracker.vision.faces.detector import Detection
+from human_tracker.vision.faces.detector import Detection, near_region
 from human_tracker.vision.faces.pose import view_of
 
 __all__ = ['MIN_SCORE', 'MODEL_FILE', 'YuNetDetector', 'yunet_available']
@@ -27,13 +27,11 @@ MODEL_FILE = Path(__file__).resolve().parents[2] / 'data' / 'face_detection_yune
 """YuNet's network (OpenCV zoo, 2026 release; ``data/face_detection_yunet.md`` says where from)."""
 
 # A region searched around a face is resized so that the face is about this wide: YuNet finds
-# faces from about 10 px; at this width it finds them turned and partly hidden, and a region
-# of four face widths stays a few thousand pixels.
+# faces from about 10 px, and a region of four face widths stays a few thousand pixels.
 DETECTABLE_FACE = 48.0
 # The network's output strides (pixels per output cell); the input's sides are multiples of the largest.
 STRIDES = (8, 16, 32)
-# The least score of a face: on the real sequences' frames at 320 px this keeps all but 8 of
-# 548 own faces found at 0.6 and drops half the faces elsewhere (docs/decisions/yunet-faces.md).
+# The least score of a face (chosen on the real sequences: docs/decisions/yunet-faces.md).
 MIN_SCORE = 0.7
 # Boxes overlapping a better one by more than this (intersection over union) are the same face.
 SAME_FACE_OVERLAP = 0.3
@@ -98,10 +96,12 @@ class YuNetDetector:
     ) -> list[Detection]:
         """Faces within ``reach`` times the face ``box``'s size (x, y, w, h) of its centre.
 
-        The region is resized so that a face of ``box``'s size is :data:`DETECTABLE_FACE` wide
-        (times ``zoom_factor``): a fraction of a whole frame's time.
+        The region (:func:`~human_tracker.vision.faces.detector.near_region`'s) is resized so that
+        a face of ``box``'s size is :data:`DETECTABLE_FACE` wide (times ``zoom_factor``): a
+        fraction of a whole frame's time.
         """
-        rectangle, zoom = near_region(image.shape, box, reach, zoom_factor)
+        rectangle, _ = near_region(image.shape, box, reach)
+        zoom = zoom_factor * DETECTABLE_FACE / max(min(box[2], box[3]), 1.0)
         return self.detect_region(image, rectangle, zoom)
 
     def detect_region(self, image: np.ndarray, rectangle: tuple[int, int, int, int], zoom: float) -> list[Detection]:
@@ -155,17 +155,3 @@ def _decode(outputs: dict[str, np.ndarray], padded_width: int, min_score: float)
         box = tuple(float(v) for v in box_array[k])
         found.append(Detection(box, float(score_array[k]), view=view_of(landmarks), landmarks=landmarks))  # type: ignore[arg-type]
     return sorted(found, key=lambda d: -d.score)
-
-
-def near_region(
-    shape: tuple[int, ...], box: tuple[float, float, float, float], reach: float = 2.0, zoom_factor: float = 1.0
-) -> tuple[tuple[int, int, int, int], float]:
-    """The rectangle (left, top, right, bottom) of an image of ``shape`` within ``reach`` times
-    the face ``box``'s size (x, y, w, h) of its centre, and the zoom at which a face of ``box``'s
-    size is :data:`DETECTABLE_FACE` wide there (times ``zoom_factor``)."""
-    x, y, w, h = box
-    size = reach * max(w, h)
-    height, width = shape[:2]
-    left, top = int(max(0, x + w / 2 - size)), int(max(0, y + h / 2 - size))
-    right, bottom = int(min(width, x + w / 2 + size)), int(min(height, y + h / 2 + size))
-    return (left, top, right, bottom), zoom_factor * DETECTABLE_FACE / max(min(w, h), 1.0)

@@ -126,13 +126,18 @@ def topics(seconds: float = 2.0) -> list[str]:
 
 
 def echo(topic: str, count: int = 1, timeout: float = 10.0) -> list[str]:
-    """The first ``count`` messages on ``topic`` (its type found on the graph) as YAML, within ``timeout`` s.
+    """The first ``count`` messages on ``topic`` (its type found on the graph) as YAML, within
+    ``timeout`` s of the topic being discovered.
 
     Raises:
-        ValueError: No such topic on the graph.
+        ValueError: No such topic on the graph within ``timeout`` s.
     """
     with _graph_node() as (node, executor):
-        types = dict(node.get_topic_names_and_types()).get(topic)
+        # A stale participant of the same domain can make the graph look settled before the
+        # topic's publisher is discovered: wait for the topic, as ``ros2 topic echo`` does.
+        deadline = time.monotonic() + timeout
+        while not (types := dict(node.get_topic_names_and_types()).get(topic)) and time.monotonic() < deadline:
+            _spin_for(executor, 0.25)
         if not types:
             known = ', '.join(sorted(name for name, _ in node.get_topic_names_and_types())) or 'none'
             raise ValueError(f'no topic {topic} on the graph; topics: {known}')

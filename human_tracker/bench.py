@@ -138,8 +138,34 @@ def _skin(real_data: Path) -> list[dict[str, object]]:
         if hgr.is_dir():
             scores = labelled_photo_scores(hgr, parameters=parameters)
             rows.append({'sequence': 'hgr (178 photos)', 'method': regions, 'truth': 'pixel masks', **scores})
+    rows += _skin_of_faces(real_data)
     for row in rows:
         print(json.dumps(row))
+    return rows
+
+
+def _skin_of_faces(real_data: Path) -> list[dict[str, object]]:
+    """The general classes and the classes learnt from each frame's faces, on the skin masks
+    drawn on real frames (test/data/skin_masks)."""
+    from human_tracker.evaluation.skin import frame_labels, labelled_mask_scores, labels_from_faces
+    from human_tracker.vision.cues.skin import default_skin_model
+    from human_tracker.vision.faces.yunet import YuNetDetector, yunet_available
+
+    masks = Path('test/data/skin_masks')
+    if not yunet_available():
+        return []
+    prior = default_skin_model()
+    methods = {
+        'cells, general': lambda image: frame_labels(image, prior),
+        'cells, from faces': labels_from_faces(YuNetDetector().detect, prior),
+    }
+    rows: list[dict[str, object]] = []
+    for folder in sorted(path for path in masks.iterdir() if path.is_dir()):
+        if not (real_data / folder.name).is_dir():
+            continue
+        for method, labels_of in methods.items():
+            scores = labelled_mask_scores(folder, real_data / folder.name, labels_of)
+            rows.append({'sequence': folder.name, 'method': method, 'truth': 'drawn masks', **scores})
     return rows
 
 

@@ -39,18 +39,29 @@ def _skin(options: argparse.Namespace) -> int:
     import cv2
     import numpy as np
 
+    from human_tracker.evaluation.skin import frame_labels
     from human_tracker.io.frames import open_frames
-    from human_tracker.vision.cues.resolution import to_working, working_scale
-    from human_tracker.vision.cues.skin import SkinModel, SkinParameters, SkinSegmenter, default_skin_model, has_colour
+    from human_tracker.vision.cues.skin import (
+        SkinModel,
+        SkinParameters,
+        default_skin_model,
+        frame_skin_model,
+        has_colour,
+    )
 
     source = open_frames(options.input)
     model = SkinModel.load(options.model) if options.model else default_skin_model()
     parameters = SkinParameters(
         colour_blur=options.colour_blur, regions=options.regions, merge_distance=options.merge_distance
     )
-    segmenter = SkinSegmenter(model, parameters)
+    parameters.validate()
+    detector = None
+    if not options.general:
+        from human_tracker.vision.faces.yunet import YuNetDetector
+
+        detector = YuNetDetector()
     options.out.mkdir(parents=True, exist_ok=True)
-    written, unreadable, grey = 0, [], 0
+    written, unreadable, grey, from_faces = 0, [], 0, 0
     labelled = 0.0
     try:
         for index, image in enumerate(source):
@@ -62,17 +73,24 @@ def _skin(options: argparse.Namespace) -> int:
                 grey += 1  # no chromaticity: written as no skin, counted
                 mask = np.zeros(image.shape[:2], np.uint8)
             else:
-                # As the skin stage does: at the working width, cells scaled, labels back to full size.
-                scale = working_scale(image.shape[1], options.working_width)
-                mask = segmenter.segment(to_working(image, options.working_width), scale)
-                mask = cv2.resize(mask, (image.shape[1], image.shape[0]), interpolation=cv2.INTER_NEAREST)
+                frame_model = model
+                if detector is not None:
+                    faces = [face.landmarks for face in detector.detect(image)]
+                    frame_model = frame_skin_model(image, faces, model, parameters.max_exposure_gain)
+                    from_faces += frame_model is not model
+                mask = frame_labels(image, frame_model, parameters, options.working_width)
             cv2.imwrite(str(options.out / f'{stem}.png'), np.where(mask > 0, 255, 0).astype(np.uint8))
             written += 1
             labelled += float(np.count_nonzero(mask)) / mask.size
     finally:
         source.close()
+    faces_said = ''
+    if detector is not None:
+        faces_said = (
+            f' ({from_faces} from the skin of their faces, {written - from_faces - grey} from the general model)'
+        )
     print(
-        f'human_tracker skin: wrote {written} masks (255 = skin) to {options.out}; '
+        f'human_tracker skin: wrote {written} masks (255 = skin) to {options.out}{faces_said}; '
         f'{labelled / max(written, 1):.1%} of the pixels labelled skin on average'
     )
     if grey:
@@ -96,10 +114,24 @@ def add_skin_commands(commands: argparse._SubParsersAction) -> None:
     trainer.add_argument('--seed', type=int, default=0)
     trainer.set_defaults(run=_train_skin)
 
-    skin = commands.add_parser('skin', help='skin labels (§3.2) of a folder of images or a video, one PNG mask each')
+    skin = commands.add_parser(
+        'skin',
+        help="skin labels (§3.2) of a folder of images or a video, one PNG mask each, from the skin of each frame's "
+        'faces (the general classes where none is found)',
+    )
     skin.add_argument('input', help='folder of images (masks keep their file stems) or video file')
     skin.add_argument('--out', type=Path, required=True, help='folder to write the masks to (255 = skin)')
-    skin.add_argument('--model', type=Path, help='skin classes (JSON from train-skin; default: the shipped ones)')
+    skin.add_argument(
+        '--model',
+        type=Path,
+        help='general skin classes (JSON from train-skin; default: the shipped ones): the prior a face must fit, '
+        'and the labels of a frame without a face',
+    )
+    skin.add_argument(
+        '--general',
+        action='store_true',
+        help="label every frame with the general classes (default: each frame's skin learnt from its faces)",
+    )
     skin.add_argument(
         '--regions',
         choices=('cells', 'pixels'),

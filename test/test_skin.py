@@ -329,13 +329,14 @@ def test_the_shipped_model_is_what_train_skin_makes(tmp_path) -> None:
 
 
 def test_the_skin_command_writes_a_mask_per_image_and_counts_the_unreadable(tmp_path, capsys) -> None:
-    """`human_tracker skin`: one PNG per image, same stem, 255 = skin, as the skin stage labels it."""
+    """`human_tracker skin --general`: one PNG per image, same stem, 255 = skin, as the skin stage
+    labels it with the general classes."""
     frames = list(render_scene(SCENES['hand_wave']))[:2]
     folder = tmp_path / 'in'
     folder.mkdir()
     for k, frame in enumerate(frames):
         cv2.imwrite(str(folder / f'frame_{k}.png'), frame.image)
-    assert main(['skin', str(folder), '--out', str(tmp_path / 'out'), '--working-width', '0']) == 0
+    assert main(['skin', str(folder), '--out', str(tmp_path / 'out'), '--working-width', '0', '--general']) == 0
     for k, frame in enumerate(frames):
         mask = cv2.imread(str(tmp_path / 'out' / f'frame_{k}.png'), cv2.IMREAD_GRAYSCALE)
         np.testing.assert_array_equal(mask > 0, segment_skin(frame.image, default_skin_model()) > 0)
@@ -344,7 +345,19 @@ def test_the_skin_command_writes_a_mask_per_image_and_counts_the_unreadable(tmp_
     assert main(['skin', str(folder), '--out', str(tmp_path / 'small'), '--working-width', '160']) == 0
     assert cv2.imread(str(tmp_path / 'small' / 'frame_0.png')).shape[:2] == frames[0].image.shape[:2]
     assert (
-        main(['skin', str(folder), '--out', str(tmp_path / 'pixels'), '--working-width', '0', '--regions', 'pixels'])
+        main(
+            [
+                'skin',
+                str(folder),
+                '--out',
+                str(tmp_path / 'pixels'),
+                '--working-width',
+                '0',
+                '--regions',
+                'pixels',
+                '--general',
+            ]
+        )
         == 0
     )
     pixels = SkinParameters(regions='pixels')

@@ -1,14 +1,15 @@
 """How well the skin labels (§3.2) cover true skin: pixel precision and recall, regions found.
 
 Truth comes from the scene generator (exact skin of the face and the hand, frames read back
-from the bundled JPEG bags) or from hand-labelled boxes of real frames (a JSON file of
-inclusive ``[x0, y0, x1, y1]`` boxes per frame index).
+from the bundled JPEG bags), from hand-labelled boxes of real frames (a JSON file of
+inclusive ``[x0, y0, x1, y1]`` boxes per frame index) or from skin masks drawn on real frames
+(``test/data/skin_masks``: :func:`labelled_mask_scores`).
 """
 
 from __future__ import annotations
 
 import json
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import cv2
@@ -16,9 +17,26 @@ import numpy as np
 
 from human_tracker.io.sequences import open_sequence
 from human_tracker.scenes.generator import SCENES, render_scene
-from human_tracker.vision.cues.skin import SkinModel, SkinParameters, default_skin_model, segment_skin
+from human_tracker.vision.cues.resolution import to_working, working_scale
+from human_tracker.vision.cues.skin import (
+    SkinModel,
+    SkinParameters,
+    default_skin_model,
+    frame_skin_model,
+    segment_skin,
+)
+from human_tracker.vision.faces.detector import Detection
 
-__all__ = ['box_mask', 'labelled_photo_scores', 'labelled_video_scores', 'scene_scores', 'skin_scores']
+__all__ = [
+    'box_mask',
+    'frame_labels',
+    'labelled_mask_scores',
+    'labels_from_faces',
+    'labelled_photo_scores',
+    'labelled_video_scores',
+    'scene_scores',
+    'skin_scores',
+]
 
 
 def box_mask(shape: tuple[int, int], boxes: Sequence[Sequence[int]]) -> np.ndarray:
@@ -128,4 +146,62 @@ def labelled_photo_scores(
         'recall': round(recall, 4),
         'f1': round(2.0 * hits / (labelled + true), 4) if labelled + true else float('nan'),
         'mean_photo_f1': round(float(np.mean(photo_f1)), 4) if photo_f1 else float('nan'),
+    }
+
+
+def frame_labels(
+    image: np.ndarray, model: SkinModel, parameters: SkinParameters | None = None, width: int = 320
+) -> np.ndarray:
+    """Skin labels of a BGR frame as the skin stage computes them (at working ``width``, 0: full
+    size; lengths scaled), resized to the frame's size."""
+    parameters = parameters or SkinParameters()
+    scale = working_scale(image.shape[1], width)
+    labels = segment_skin(to_working(image, width), model, parameters.scaled(scale))
+    return cv2.resize(labels, (image.shape[1], image.shape[0]), interpolation=cv2.INTER_NEAREST)
+
+
+def labels_from_faces(
+    detect: Callable[[np.ndarray], Sequence[Detection]], prior: SkinModel | None = None
+) -> Callable[[np.ndarray], np.ndarray]:
+    """A frame's skin labels (:func:`frame_labels`) from the classes of the faces ``detect`` finds
+    in it (:func:`~human_tracker.vision.cues.skin.frame_skin_model`), the ``prior`` (the general
+    classes) where it finds none."""
+    prior = prior or default_skin_model()
+
+    def labels_of(image: np.ndarray) -> np.ndarray:
+        faces = [face.landmarks for face in detect(image)]
+        return frame_labels(image, frame_skin_model(image, faces, prior))
+
+    return labels_of
+
+
+def labelled_mask_scores(
+    masks: Path, sequence: Path, labels_of: Callable[[np.ndarray], np.ndarray]
+) -> dict[str, float]:
+    """Scores of ``labels_of`` (a BGR frame to its ``(H, W)`` skin labels, non-zero: skin) on the
+    frames of a real sequence with drawn skin masks.
+
+    Args:
+        masks: Folder of ``<index>.png`` masks (255: skin), ``index`` the frame's position in the
+            sequence's sorted ``img/`` folder.
+        sequence: The sequence's folder.
+
+    Returns:
+        ``frames``; ``precision``, ``recall`` and ``f1`` of the skin pixels, all frames pooled.
+    """
+    frames = sorted((sequence / 'img').iterdir())
+    hits = labelled = true = 0
+    paths = sorted(masks.glob('*.png'))
+    for path in paths:
+        truth = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+        image = cv2.imread(str(frames[int(path.stem)]), cv2.IMREAD_COLOR)
+        if truth is None or image is None or truth.shape != image.shape[:2]:
+            raise ValueError(f'{path}: the mask or its frame cannot be read, or their sizes differ')
+        counts = _pixel_counts(labels_of(image), truth > 0)
+        hits, labelled, true = hits + counts[0], labelled + counts[1], true + counts[2]
+    return {
+        'frames': len(paths),
+        'precision': round(hits / labelled, 4) if labelled else 0.0,
+        'recall': round(hits / true, 4) if true else float('nan'),
+        'f1': round(2.0 * hits / (labelled + true), 4) if labelled + true else float('nan'),
     }

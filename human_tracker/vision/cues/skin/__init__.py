@@ -26,12 +26,15 @@ The segmentation has the paper's two phases:
 The skin classes are Gaussian clusters in the (I2, I3) plane learnt from labelled samples
 (:func:`train_skin_model`, the ``human_tracker train-skin`` command) and shipped with the
 package (:func:`default_skin_model`). :class:`SkinSegmenter` can adapt them online from
-the tracked region, within a bounded distance of what was learnt.
+the tracked region, within a bounded distance of what was learnt. A person's own classes come
+from their face (:mod:`~human_tracker.vision.cues.skin.face_skin`): the same segmentation with
+the face's class in place of the general ones.
 """
 
 from __future__ import annotations
 
 from human_tracker.vision.cues.skin.clusters import histogram_modes
+from human_tracker.vision.cues.skin.face_skin import FaceSkin, face_skin_class, face_skin_mask, frame_skin_model
 from human_tracker.vision.cues.skin.model import (
     MIXED_SKIN,
     SKIN,
@@ -47,6 +50,7 @@ from human_tracker.vision.cues.skin.regions import candidate_cells, cell_chroma,
 from human_tracker.vision.cues.skin.segmenter import SkinSegmenter, segment_skin
 
 __all__ = [
+    'FaceSkin',
     'MIXED_SKIN',
     'REGION_METHODS',
     'SKIN',
@@ -58,6 +62,9 @@ __all__ = [
     'cell_chroma',
     'hysteresis_regions',
     'default_skin_model',
+    'face_skin_class',
+    'face_skin_mask',
+    'frame_skin_model',
     'has_colour',
     'histogram_modes',
     'merge_cells',

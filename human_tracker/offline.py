@@ -195,10 +195,14 @@ def track_sequence(source: str | Path, out: str | Path, options: TrackOptions) -
                 if estimate is not None:
                     particles.append(estimate.particle_count)
                 ids[name].append(outcome.id if outcome is not None else 0)
+            gestures = {person: str(reading.gesture) for person, reading in result.gestures.items()}
             for outcome in outcomes:
-                table.writerow(_pose_row(frame.index, frame.stamp_ns, outcome))
+                table.writerow(_pose_row(frame.index, frame.stamp_ns, outcome, gestures.get(outcome.person, '')))
             if options.video and frame.index % options.video_every == 0:
-                image = _annotated_frame(frame.image, outcomes, frame.ground_truth, f'{sequence.name} {frame.index}')
+                label = ' '.join(
+                    [f'{sequence.name} {frame.index}', *(g.replace('_', ' ') for g in gestures.values() if g)]
+                )
+                image = _annotated_frame(frame.image, outcomes, frame.ground_truth, label)
                 if writer is None:
                     height, size = image.shape[:2]
                     writer = cv2.VideoWriter(
@@ -300,10 +304,10 @@ def _several_tracks(
     return {'tracks': scores, 'all_tracks': identity_scores(tracks, reported, kinds=kinds)}
 
 
-def _pose_row(index: int, stamp_ns: int, outcome: TrackedTarget) -> list[object]:
-    """One target's row of ``poses.csv`` (:data:`POSE_COLUMNS`)."""
+def _pose_row(index: int, stamp_ns: int, outcome: TrackedTarget, gesture: str = '') -> list[object]:
+    """One target's row of ``poses.csv`` (:data:`POSE_COLUMNS`); ``gesture``: its person's."""
     result, estimate = outcome.result, outcome.result.estimate
-    who = [outcome.id or '', outcome.kind, outcome.person, outcome.name]
+    who = [outcome.id or '', outcome.kind, outcome.person, outcome.name, gesture]
     if estimate is None:
         return [index, stamp_ns, *[''] * 5, result.status, *[''] * (_AFTER_STATUS - len(who)), *who]
     x, y, s, theta = (round(float(v), 4) for v in estimate.state)

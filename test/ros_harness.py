@@ -106,11 +106,15 @@ def replay_and_collect(
                 if done:
                     break
                 executor.spin_once(timeout_sec=0.05)
-            # The last frame's other messages (velocity, contour, standard outputs) are sent
-            # just after its pose: taken too before the nodes stop.
-            drained = time.monotonic() + 0.25
-            while time.monotonic() < drained:
+            # The last frames' other messages (velocity, contour, standard outputs) are sent just
+            # after their pose, and another topic (the diagnostics) may arrive before them: taken
+            # too before the nodes stop, until nothing has come for half a second (a busy
+            # machine's collector lags; at most 5 s).
+            drained, quiet_since, count = time.monotonic() + 5.0, time.monotonic(), collector.received()
+            while time.monotonic() < drained and time.monotonic() - quiet_since < 0.5:
                 executor.spin_once(timeout_sec=0.02)
+                if collector.received() != count:
+                    quiet_since, count = time.monotonic(), collector.received()
             if diagnostics_of:
                 collector.spin_until_diagnostics(executor, diagnostics_of, 5.0)
         finally:

@@ -15,6 +15,8 @@ import numpy as np
 import pytest
 import rclpy
 from conftest import REPO
+from hri_msgs.msg import Gesture as GestureMessage
+from hri_msgs.msg import IdsMatch
 from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState
 from nav_msgs.msg import Odometry
@@ -50,6 +52,7 @@ from human_tracker.vision.filter.contour_filter import box_from_state
 from human_tracker.vision.filter.templates import ContourTemplate, fit_template, hand, head_and_shoulders
 from human_tracker.vision.geometry.boxes import box_centre
 from human_tracker.vision.geometry.camera import back_project, default_camera_matrix, metric_positions
+from human_tracker.vision.people.gestures import Gesture
 
 
 def _pixel(position, camera_matrix: np.ndarray) -> tuple[float, float]:
@@ -509,6 +512,67 @@ def _check_standard_outputs(
                 np.testing.assert_allclose(corners, inside, atol=0.02)
     print(f'standard outputs: {len(collector.tracked)} face lists, {regions} face regions as the offline boxes')
     assert regions >= 0.9 * sum(len(heads) for heads in heads_before[2:]) - 5
+    _check_bodies(collector, frames, rows)
+
+
+def _check_bodies(collector: PoseCollector, frames: list[Any], rows: list[dict[str, str]]) -> set[str]:
+    """ROS4HRI bodies, as a client reads them: each listed face's person listed as a body (its
+    digits), its ``body_<id>`` frame at its face frame's origin, matched to its face on
+    ``candidate_matches`` when it appears (confidence 1) and unmatched when it goes (0); every
+    gesture a body's topic carries is the offline command's for that person on that frame, and
+    a body is seen WAVING when the offline command reads it. Returns the bodies seen waving."""
+    faces = {stamp_ns(m.header): set(m.ids) for m in collector.tracked}
+    bodies = {stamp_ns(m.header): set(m.ids) for m in collector.bodies}
+    assert set(bodies) == set(faces)
+    for stamp, listed in faces.items():
+        assert bodies[stamp] == {'b' + face[1:] for face in listed}
+        for face in listed:
+            optical = collector.transforms[stamp][0].header.frame_id
+            ident = int(face[1:])
+            at, _ = _lookup(collector.transforms[stamp], optical, frame_name('head', ident))
+            body_at, body = _lookup(collector.transforms[stamp], optical, frame_name('body', ident))
+            np.testing.assert_allclose(body_at, at, atol=1e-9)
+            np.testing.assert_allclose(body.apply([0, 0, 1]), [0, -1, 0], atol=0.2)  # upright: up is the image's up
+    seen = sorted({body for listed in bodies.values() for body in listed})
+    matched = {(m.id1, m.id1_type, m.id2, m.id2_type, m.confidence) for m in collector.matches}
+    for body in seen:
+        assert ('f' + body[1:], IdsMatch.FACE, body, IdsMatch.BODY, 1.0) in matched
+    last = bodies[max(bodies)]
+    for body in set(seen) - last:
+        assert ('f' + body[1:], IdsMatch.FACE, body, IdsMatch.BODY, 0.0) in matched
+    index_of = {frame.stamp_ns: index for index, frame in enumerate(frames)}
+    offline = {(int(r['frame']), int(r['id'])): r['gesture'] for r in rows if r['kind'] == 'head' and r['id']}
+    received = 0
+    for body, messages in collector.gestures.items():
+        for stamp, message in messages.items():
+            assert str(Gesture(message.gesture)) == offline[index_of[stamp], int(body[1:])]
+            received += 1
+    waving = {
+        body
+        for body, messages in collector.gestures.items()
+        for m in messages.values()
+        if m.gesture == GestureMessage.WAVING
+    }
+    waving_rows = sum(g == 'waving' for g in offline.values())
+    print(f'bodies: {len(seen)}, {received} gesture messages as offline, waving: {sorted(waving)} ({waving_rows} rows)')
+    assert bool(waving) == (waving_rows > 0)
+    return waving
+
+
+def test_a_waving_person_is_a_body_whose_gesture_topic_says_so(tmp_path) -> None:
+    """people_crossing, target:=person: the waving person is a ROS4HRI body matched to their
+    face, with a ``body_<id>`` frame, and their gesture topic says WAVING on the frames the
+    offline command reads it (the walker's head, one person followed, is not taken up)."""
+    bag = REPO / 'bags' / 'people_crossing'
+    frames = list(read_frames(bag))
+    args = node_arguments(COMPRESSED_CAMERA_TOPIC, True, depth=2 * len(frames)) + ['-p', 'target:=person']
+    pipeline = NodeProcess('human_tracker.ros.pipeline', args, environment(), tmp_path / 'pipeline.log')
+    collector = replay_and_collect(
+        pipeline, bag, COMPRESSED_CAMERA_TOPIC, tmp_path, len(frames), diagnostics_of='/tracker_node', standard=True
+    )
+    track_sequence(bag, tmp_path / 'offline', TrackOptions(target='person', video=False, progress=False))
+    rows = list(csv.DictReader((tmp_path / 'offline' / 'poses.csv').open()))
+    assert _check_bodies(collector, frames, rows)
 
 
 def _same_point(a: Any, b: Any) -> bool:

@@ -33,7 +33,9 @@ from human_tracker.vision.faces.facing import Facing
 # robot's own type matches ours only if they are equal.
 UPSTREAM_TYPE_HASHES = {
     ('tf2_msgs', 'TFMessage'): 'e369d0f05a23ae52508854b66f6aa0437f3449d652e8cbf22d5abe85d020f087',
+    ('hri_msgs', 'Gesture'): 'fbf9f3c4cb8a64e63a1cf819affbb09a32915da45d4786c701eed225193b7f4a',
     ('hri_msgs', 'IdsList'): '7e0812d1ac945c98fd3e393568d581ad0ab567f37b24eff633eab778c1bfe62d',
+    ('hri_msgs', 'IdsMatch'): '1c649d4a87ca2d4fe5f606395e83a863640e411c9192dfda6d399a68019966f0',
     ('hri_msgs', 'NormalizedRegionOfInterest2D'): '2e50c93f1ca166ee77af9a5424dc951ae4e452b740162a7f83c082d917dcaff5',
     ('vision_msgs', 'BoundingBox2D'): '008eacbb0cf8f26e83795547bed013eec3675485ef386ec056d80eaaf1c1ce2f',
     ('vision_msgs', 'BoundingBox3D'): 'bbb73a65c163d7f9bb29009c7bde9f7faa576bd2d23299c4511d19230dab4698',

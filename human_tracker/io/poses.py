@@ -37,6 +37,7 @@ POSE_COLUMNS = (
     'kind',
     'person',
     'target',
+    'gesture',
 )
 _T = TypeVar('_T')
 

@@ -7,7 +7,7 @@ import time
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PolygonStamped, PoseWithCovarianceStamped, TransformStamped, TwistWithCovarianceStamped
-from hri_msgs.msg import IdsList, NormalizedRegionOfInterest2D
+from hri_msgs.msg import Gesture, IdsList, IdsMatch, NormalizedRegionOfInterest2D
 from nav_msgs.msg import Odometry
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
@@ -41,7 +41,8 @@ class PoseCollector(Node):
     With ``standard`` it reads the standard outputs as their own consumers do: ``/tf``,
     ``detections`` and ``detections_3d`` by stamp, and REP-155's faces as a ROS4HRI client: every
     ``/humans/faces/tracked`` list in order, and each listed id's ``roi`` subscribed when the id
-    appears and unsubscribed when it leaves.
+    appears and unsubscribed when it leaves; the same of ``/humans/bodies/tracked`` and each
+    body's ``gesture``, and every ``/humans/candidate_matches`` message in order.
     """
 
     def __init__(self, namespace: str = '', *, markers: bool = False, standard: bool = False) -> None:
@@ -69,11 +70,31 @@ class PoseCollector(Node):
         self.tracked: list[IdsList] = []
         self.regions: dict[str, dict[int, NormalizedRegionOfInterest2D]] = {}
         self._region_subscriptions: dict[str, object] = {}
+        self.bodies: list[IdsList] = []
+        self.gestures: dict[str, dict[int, Gesture]] = {}
+        self._gesture_subscriptions: dict[str, object] = {}
+        self.matches: list[IdsMatch] = []
         if standard:
             self.create_subscription(TFMessage, '/tf', self._on_tf, _KEEP_ALL)
             self.create_subscription(Detection2DArray, 'detections', self._keep(self.detections), _KEEP_ALL)
             self.create_subscription(Detection3DArray, 'detections_3d', self._keep(self.detections_3d), _KEEP_ALL)
             self.create_subscription(IdsList, '/humans/faces/tracked', self._on_tracked, _LATCHED)
+            self.create_subscription(IdsList, '/humans/bodies/tracked', self._on_bodies, _LATCHED)
+            self.create_subscription(IdsMatch, '/humans/candidate_matches', self.matches.append, _KEEP_ALL)
+
+    def received(self) -> int:
+        """How many messages of a frame's outputs have been stored so far (they grow as they arrive)."""
+        stores = (self.poses, self.contours, self.velocities, self.markers, self.transforms, self.detections)
+        return (
+            sum(map(len, stores))
+            + sum(map(len, self.targets.values()))
+            + sum(map(len, self.regions.values()))
+            + sum(map(len, self.gestures.values()))
+            + len(self.detections_3d)
+            + len(self.tracked)
+            + len(self.bodies)
+            + len(self.matches)
+        )
 
     @staticmethod
     def _keep(store: dict) -> object:
@@ -85,15 +106,23 @@ class PoseCollector(Node):
 
     def _on_tracked(self, msg: IdsList) -> None:
         self.tracked.append(msg)
-        for ident in set(self._region_subscriptions) - set(msg.ids):
-            self.destroy_subscription(self._region_subscriptions.pop(ident))
-        for ident in msg.ids:
-            if ident not in self._region_subscriptions:
-                on_region = self._keep(self.regions.setdefault(ident, {}))
-                topic = f'/humans/faces/{ident}/roi'
-                self._region_subscriptions[ident] = self.create_subscription(
-                    NormalizedRegionOfInterest2D, topic, on_region, _LATCHED
-                )
+        self._follow(
+            msg.ids, self._region_subscriptions, self.regions, '/humans/faces/{}/roi', NormalizedRegionOfInterest2D
+        )
+
+    def _on_bodies(self, msg: IdsList) -> None:
+        self.bodies.append(msg)
+        self._follow(msg.ids, self._gesture_subscriptions, self.gestures, '/humans/bodies/{}/gesture', Gesture)
+
+    def _follow(self, ids: list[str], subscriptions: dict, stores: dict, topic: str, kind: type) -> None:
+        """Subscribe each id's ``topic`` (stored by stamp in ``stores[id]``) when it is listed,
+        and unsubscribe it when it leaves the list."""
+        for ident in set(subscriptions) - set(ids):
+            self.destroy_subscription(subscriptions.pop(ident))
+        for ident in ids:
+            if ident not in subscriptions:
+                keep = self._keep(stores.setdefault(ident, {}))
+                subscriptions[ident] = self.create_subscription(kind, topic.format(ident), keep, _LATCHED)
 
     def _on_pose(self, msg: PoseWithCovarianceStamped) -> None:
         self.poses[stamp_ns(msg.header)] = msg

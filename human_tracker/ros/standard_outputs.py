@@ -12,6 +12,14 @@
   and ``/humans/faces/<id>/roi`` (hri_msgs/NormalizedRegionOfInterest2D) per face; an id is
   published once its head has been TRACKING ``confirm_frames`` frames in a row, and leaves the
   list on the first frame it is not.
+- **ROS4HRI bodies**, where people are followed with their hands (``bodies``): each published
+  face's person is a body, ``b<digits>`` with its face's digits: ``/humans/bodies/tracked``
+  (IdsList), a ``body_<id>`` TF frame (at the head, the one place of the body measured; axes as
+  the face frame's, upright), the person's gesture on ``/humans/bodies/<id>/gesture``
+  (hri_msgs/Gesture, on every frame a gesture is read:
+  :mod:`~human_tracker.vision.people.gestures`), and on ``/humans/candidate_matches``
+  (hri_msgs/IdsMatch) the face-body match, confidence 1 when the body appears and 0 when it
+  goes.
 - **vision_msgs**: ``detections`` (Detection2DArray: box, class ``head`` / ``hand``, score the
   confidence, id) and ``detections_3d`` (Detection3DArray: the metric pose and its covariance,
   the target's physical size) on every frame, empty when nothing is TRACKING.
@@ -26,7 +34,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 from geometry_msgs.msg import PoseWithCovariance, Quaternion, TransformStamped
-from hri_msgs.msg import IdsList, NormalizedRegionOfInterest2D
+from hri_msgs.msg import Gesture as GestureMessage
+from hri_msgs.msg import IdsList, IdsMatch, NormalizedRegionOfInterest2D
 from rclpy.duration import Duration
 from tf2_msgs.msg import TFMessage
 from vision_msgs.msg import (
@@ -40,9 +49,12 @@ from vision_msgs.msg import (
 
 from human_tracker.ros.common import LATCHED_QOS, RESULT_QOS
 from human_tracker.vision.faces.facing import Facing
+from human_tracker.vision.people.gestures import Gesture
 
 __all__ = [
+    'BODIES_TOPIC',
     'FACES_TOPIC',
+    'MATCHES_TOPIC',
     'PublishedTarget',
     'StandardOutputs',
     'detection_2d',
@@ -57,8 +69,14 @@ __all__ = [
 FACES_TOPIC = '/humans/faces'
 """REP-155's namespace of faces: ``tracked`` and ``<id>/roi`` under it."""
 
-_ID_LETTER = {'head': 'f', 'hand': 'h'}
-_FRAME_WORD = {'head': 'face', 'hand': 'hand'}
+BODIES_TOPIC = '/humans/bodies'
+"""REP-155's namespace of bodies: ``tracked`` and ``<id>/gesture`` under it."""
+
+MATCHES_TOPIC = '/humans/candidate_matches'
+"""REP-155's matches between ids (here a face and its body)."""
+
+_ID_LETTER = {'head': 'f', 'hand': 'h', 'body': 'b'}
+_FRAME_WORD = {'head': 'face', 'hand': 'hand', 'body': 'body'}
 
 # A head turned by ψ about the vertical (the optical y axis) from facing the camera.
 _YAW = {Facing.TOWARD: 0.0, Facing.AWAY: np.pi}
@@ -100,6 +118,7 @@ class PublishedTarget(NamedTuple):
         theta: The silhouette's angle θ about the optical axis, radians.
         facing: Where a head faces; None for a hand.
         size: Its physical width, height and depth, metres.
+        gesture: A head's person's gesture (:attr:`Gesture.NONE` for a hand, or none read).
     """
 
     id: int
@@ -110,11 +129,13 @@ class PublishedTarget(NamedTuple):
     theta: float
     facing: Facing | None
     size: tuple[float, float, float]
+    gesture: Gesture = Gesture.NONE
 
 
 def target_name(kind: str, ident: int) -> str:
-    """The id string of track ``ident`` of ``kind``: a letter and five digits (``f00003``), as
-    REP-155 asks of an id (it starts with a letter)."""
+    """The id string of track ``ident`` of ``kind`` (``head``, ``hand``, or ``body``: a head's
+    person): a letter and five digits (``f00003``), as REP-155 asks of an id (it starts with a
+    letter)."""
     return f'{_ID_LETTER[kind]}{ident:05d}'
 
 
@@ -157,13 +178,14 @@ def normalised_region(
     )
 
 
-def _transform(header: Any, child: str, target: PublishedTarget) -> TransformStamped:
+def _transform(header: Any, child: str, target: PublishedTarget, upright: bool = False) -> TransformStamped:
+    """The target's frame ``child`` (a body's, ``upright``: its head's without the head's tilt)."""
     transform = TransformStamped(header=header, child_frame_id=child)
     position = target.pose.pose.position
     transform.transform.translation.x, transform.transform.translation.y = position.x, position.y
     transform.transform.translation.z = position.z
     if target.kind == 'head':
-        transform.transform.rotation = face_orientation(target.theta, target.facing)
+        transform.transform.rotation = face_orientation(0.0 if upright else target.theta, target.facing)
     else:
         transform.transform.rotation = target.pose.pose.orientation
     return transform
@@ -213,9 +235,13 @@ class StandardOutputs:
         faces: Publish REP-155's ``/humans/faces`` topics.
         frame_prefix: Put before every TF child frame's name.
         confirm_frames: Frames a head is TRACKING in a row before its face id is published.
+        bodies: Publish REP-155's ``/humans/bodies`` topics and the face-body matches (people
+            followed with their hands; with ``faces``).
     """
 
-    def __init__(self, node: Any, *, tf: bool, faces: bool, frame_prefix: str, confirm_frames: int) -> None:
+    def __init__(
+        self, node: Any, *, tf: bool, faces: bool, frame_prefix: str, confirm_frames: int, bodies: bool = False
+    ) -> None:
         self.node = node
         self.frame_prefix = frame_prefix
         self.confirm_frames = confirm_frames
@@ -226,6 +252,11 @@ class StandardOutputs:
         self.detections_3d_pub = node.create_publisher(Detection3DArray, 'detections_3d', RESULT_QOS)
         self.frames_tracking: dict[int, int] = {}  # per head's id: frames TRACKING in a row
         self.region_pubs: dict[str, Any] = {}  # per published face id: its roi publisher
+        self.bodies_pub = self.matches_pub = None
+        if faces and bodies:
+            self.bodies_pub = node.create_publisher(IdsList, f'{BODIES_TOPIC}/tracked', LATCHED_QOS)
+            self.matches_pub = node.create_publisher(IdsMatch, MATCHES_TOPIC, RESULT_QOS)
+        self.gesture_pubs: dict[str, Any] = {}  # per published body id: its gesture publisher
 
     def publish(self, header: Any, shape: tuple[int, ...], targets: list[PublishedTarget]) -> None:
         """Every output of one frame whose TRACKING targets are ``targets`` (image of ``shape``)."""
@@ -236,6 +267,9 @@ class StandardOutputs:
                 transforms.append(_transform(header, name, target))
                 if target.kind == 'head':
                     transforms.append(_gaze(header, name, target.id, self.frame_prefix))
+                if target.kind == 'head' and self.bodies_pub is not None:
+                    body = frame_name('body', target.id, self.frame_prefix)
+                    transforms.append(_transform(header, body, target, upright=True))
             self.tf_pub.publish(TFMessage(transforms=transforms))
         flat = Detection2DArray(header=header, detections=[detection_2d(header, t) for t in targets])
         self.detections_pub.publish(flat)
@@ -255,11 +289,40 @@ class StandardOutputs:
                 self.region_pubs[name] = self.node.create_publisher(NormalizedRegionOfInterest2D, topic, LATCHED_QOS)
             self.region_pubs[name].publish(normalised_region(header, head.box, shape, head.confidence))
         self.tracked_pub.publish(IdsList(header=header, ids=names))
+        if self.bodies_pub is not None:
+            self._publish_bodies(header, confirmed)
+
+    def _publish_bodies(self, header: Any, heads: list[PublishedTarget]) -> None:
+        """Each confirmed face's body: its id on ``tracked``, its match to the face when it
+        appears, its person's gesture while one is read."""
+        bodies = {target_name('body', h.id): h for h in heads}
+        self._keep_bodies(list(bodies))
+        for body, head in bodies.items():
+            if body not in self.gesture_pubs:
+                topic = f'{BODIES_TOPIC}/{body}/gesture'
+                self.gesture_pubs[body] = self.node.create_publisher(GestureMessage, topic, LATCHED_QOS)
+                self._match(body, 1.0)
+            if head.gesture is not Gesture.NONE:
+                self.gesture_pubs[body].publish(GestureMessage(header=header, gesture=int(head.gesture)))
+        self.bodies_pub.publish(IdsList(header=header, ids=list(bodies)))
+
+    def _match(self, body: str, confidence: float) -> None:
+        """The match between ``body`` and its face (the same digits): 1 associated, 0 no longer."""
+        face = _ID_LETTER['head'] + body[1:]
+        self.matches_pub.publish(
+            IdsMatch(id1=face, id1_type=IdsMatch.FACE, id2=body, id2_type=IdsMatch.BODY, confidence=confidence)
+        )
 
     def _keep_regions(self, names: list[str]) -> None:
         """Destroy the roi publisher of every face id not in ``names``."""
         for name in set(self.region_pubs) - set(names):
             self.node.destroy_publisher(self.region_pubs.pop(name))
+
+    def _keep_bodies(self, bodies: list[str]) -> None:
+        """Unmatch every body not in ``bodies`` from its face and destroy its gesture publisher."""
+        for body in sorted(set(self.gesture_pubs) - set(bodies)):
+            self._match(body, 0.0)
+            self.node.destroy_publisher(self.gesture_pubs.pop(body))
 
     def clear(self, header: Any, settle: float = 0.0) -> None:
         """Nothing is tracked any more (the node is deactivated or shuts down): an empty ``tracked``
@@ -268,6 +331,9 @@ class StandardOutputs:
         publisher: unacknowledged, the list could die with it)."""
         self.frames_tracking.clear()
         self._keep_regions([])
+        if self.bodies_pub is not None:
+            self._keep_bodies([])
+            self.bodies_pub.publish(IdsList(header=header))
         if self.tracked_pub is not None:
             self.tracked_pub.publish(IdsList(header=header))
             if settle > 0:

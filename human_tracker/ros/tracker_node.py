@@ -259,6 +259,7 @@ class TrackerNode(ImageStage):
                 interval,
                 depth,
                 motion if motion is not None else skin,
+                found.gestures,
             )
         )
         return primary.result

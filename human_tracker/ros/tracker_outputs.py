@@ -11,7 +11,7 @@ physical width, or from a registered depth image where it has readings in the ta
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -36,6 +36,7 @@ from human_tracker.ros.tracker_parameters import TrackerSettings
 from human_tracker.vision.filter.contour_filter import TrackEstimate, box_from_state
 from human_tracker.vision.geometry.camera import metric_positions, position_covariance, undistort_pixels
 from human_tracker.vision.geometry.depth import region_depth
+from human_tracker.vision.people.gestures import Gesture, GestureReading
 from human_tracker.vision.people.persons import TrackedTarget, targets_line
 from human_tracker.vision.track.outcomes import state_words
 from human_tracker.vision.track.target import TargetResult, TargetTracker
@@ -217,6 +218,7 @@ class PublishedFrame:
         interval: Seconds since the frame before (0: the first, or after a gap).
         depth: The registered depth image (metres), or None.
         mask: The cue drawn on the debug image, or None.
+        gestures: Each person's gesture by person number (people with a head and hands).
     """
 
     image: np.ndarray
@@ -229,6 +231,7 @@ class PublishedFrame:
     interval: float
     depth: np.ndarray | None
     mask: np.ndarray | None
+    gestures: Mapping[int, GestureReading] = field(default_factory=dict)
 
 
 class TrackerOutputs:
@@ -257,6 +260,7 @@ class TrackerOutputs:
             faces=settings.publish_faces,
             frame_prefix=settings.frame_prefix,
             confirm_frames=settings.face_confirm_frames,
+            bodies={'head', 'hand'} <= set(settings.kinds),
         )
         self.markers_shown = False
         self.last_distance: float | None = None
@@ -345,6 +349,7 @@ class TrackerOutputs:
         assert estimate is not None
         width, surface = frame.sizes[outcome.kind]
         box = tuple(float(v) for v in estimate.box)
+        reading = frame.gestures.get(outcome.person) if outcome.kind == 'head' else None
         return PublishedTarget(
             id=outcome.id,
             kind=outcome.kind,
@@ -354,6 +359,7 @@ class TrackerOutputs:
             theta=float(estimate.state[3]),
             facing=outcome.result.facing,
             size=(width, width * box[3] / box[2], 2.0 * surface),
+            gesture=Gesture.NONE if reading is None else reading.gesture,
         )
 
     def _publish_markers(self, frame: PublishedFrame, tracker: TargetTracker) -> None:

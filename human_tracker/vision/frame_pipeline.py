@@ -9,9 +9,10 @@ steps:
    turn the frame into its :class:`~human_tracker.vision.cues.evidence.Evidence`. The skin classes
    adapt to the primary target's contour of the frame before, when adaptation is on.
 2. :meth:`FramePipeline.track`: every target's tracker steps on that evidence
-   (:meth:`~human_tracker.vision.people.persons.PersonTracker.step`), and the primary target (the one a
+   (:meth:`~human_tracker.vision.people.persons.PersonTracker.step`), the primary target (the one a
    consumer of one target follows, :func:`~human_tracker.vision.track.outcomes.primary_target`) is
-   chosen.
+   chosen, and, where people have a head and hands, each person's gesture is read from them
+   (:mod:`~human_tracker.vision.people.gestures`).
 
 A tracker node fed by separate cue nodes receives the evidence's masks on topics and runs the
 second step alone.
@@ -20,7 +21,7 @@ second step alone.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -29,6 +30,7 @@ from human_tracker.vision.cues.skin import SkinParameters, SkinSegmenter, defaul
 from human_tracker.vision.cues.stages import CueStages, Frame
 from human_tracker.vision.filter.contour_filter import TrackerParameters
 from human_tracker.vision.filter.templates import make_template
+from human_tracker.vision.people.gestures import GestureReading, Gestures
 from human_tracker.vision.people.persons import PersonTracker, kinds_of
 from human_tracker.vision.track.outcomes import TrackedTarget, primary_target
 from human_tracker.vision.track.parameters import TargetParameters
@@ -47,12 +49,14 @@ class FrameResult:
             in the slots' order.
         primary: The outcome a consumer of one target follows (pose, contour, status).
         grey: The frame had no colour: no skin could be found in it.
+        gestures: Each person's gesture by person number (people with a head and hands only).
     """
 
     evidence: Evidence
     outcomes: list[TrackedTarget]
     primary: TrackedTarget
     grey: bool = False
+    gestures: Mapping[int, GestureReading] = field(default_factory=dict)
 
     @property
     def motion_set_aside(self) -> bool:
@@ -73,6 +77,7 @@ class FramePipeline:
         self.people = people
         self.stages = stages or CueStages()
         self.kind = people.kinds[0]
+        self.gestures = Gestures() if {'head', 'hand'} <= set(people.kinds) else None
         self._contour: np.ndarray | None = None  # the primary target's, for the skin's adaptation
 
     @classmethod
@@ -107,7 +112,8 @@ class FramePipeline:
         height, width = evidence.image.shape[:2]
         primary = primary_target(outcomes, self.kind, (width / 2.0, height / 2.0), primary_id)
         self._contour = primary.result.estimate.contour if primary.result.tracking else None
-        return FrameResult(evidence, outcomes, primary, self.stages.grey)
+        gestures = {} if self.gestures is None else self.gestures.update(evidence.stamp_ns, outcomes)
+        return FrameResult(evidence, outcomes, primary, self.stages.grey, gestures)
 
     def process(self, frame: Frame, primary_id: int = 0) -> FrameResult:
         """Both steps on one frame."""
@@ -122,6 +128,8 @@ class FramePipeline:
         """Forget every target and what the cue stages learnt (a new sequence)."""
         self.people.reset()
         self.stages.reset()
+        if self.gestures is not None:
+            self.gestures.reset()
         self._contour = None
 
     def warm_up(self) -> None:

@@ -301,11 +301,14 @@ def test_a_person_pipeline_names_each_target_on_targets(tmp_path) -> None:
     shared between kinds; the hand's positions are the offline command's and follow the hand."""
     bag = REPO / 'bags' / 'hand_wave'
     frames = list(read_frames(bag))
-    args = node_arguments(COMPRESSED_CAMERA_TOPIC, True) + ['-p', 'target:=person']
+    # A queue that holds the whole bag: two trackers a frame on a busy machine fall behind the
+    # replay, and past the default 100 queued frames the oldest were dropped (frame 17 once).
+    args = node_arguments(COMPRESSED_CAMERA_TOPIC, True, depth=2 * len(frames)) + ['-p', 'target:=person']
     pipeline = NodeProcess('human_tracker.ros.pipeline', args, environment(), tmp_path / 'pipeline.log')
     collector = replay_and_collect(
         pipeline, bag, COMPRESSED_CAMERA_TOPIC, tmp_path, len(frames), diagnostics_of='/tracker_node'
     )
+    assert collector.diagnostics['/tracker_node']['frames_processed'] == str(len(frames))
     assert 'configured: skin segmentation' in pipeline.output()
     ids: dict[str, set[int]] = {'head': set(), 'hand': set()}
     hand: list[tuple[float, float] | None] = []

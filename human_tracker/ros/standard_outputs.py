@@ -267,9 +267,9 @@ class StandardOutputs:
                 transforms.append(_transform(header, name, target))
                 if target.kind == 'head':
                     transforms.append(_gaze(header, name, target.id, self.frame_prefix))
-                if target.kind == 'head' and self.bodies_pub is not None:
-                    body = frame_name('body', target.id, self.frame_prefix)
-                    transforms.append(_transform(header, body, target, upright=True))
+                    if self.bodies_pub is not None:
+                        body = frame_name('body', target.id, self.frame_prefix)
+                        transforms.append(_transform(header, body, target, upright=True))
             self.tf_pub.publish(TFMessage(transforms=transforms))
         flat = Detection2DArray(header=header, detections=[detection_2d(header, t) for t in targets])
         self.detections_pub.publish(flat)

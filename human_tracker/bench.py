@@ -147,8 +147,8 @@ def _skin(real_data: Path) -> list[dict[str, object]]:
 def _skin_of_faces(real_data: Path) -> list[dict[str, object]]:
     """The general classes and the classes learnt from each frame's faces, on the skin masks
     drawn on real frames (test/data/skin_masks)."""
-    from human_tracker.evaluation.skin import frame_labels, labelled_mask_scores, labels_from_faces
-    from human_tracker.vision.cues.skin import default_skin_model
+    from human_tracker.evaluation.skin import labelled_mask_scores, labels_from_faces
+    from human_tracker.vision.cues.skin import default_skin_model, segment_frame
     from human_tracker.vision.faces.yunet import YuNetDetector, yunet_available
 
     masks = Path('test/data/skin_masks')
@@ -156,7 +156,7 @@ def _skin_of_faces(real_data: Path) -> list[dict[str, object]]:
         return []
     prior = default_skin_model()
     methods = {
-        'cells, general': lambda image: frame_labels(image, prior),
+        'cells, general': lambda image: segment_frame(image, prior),
         'cells, from faces': labels_from_faces(YuNetDetector().detect, prior),
     }
     rows: list[dict[str, object]] = []

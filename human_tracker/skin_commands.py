@@ -39,7 +39,6 @@ def _skin(options: argparse.Namespace) -> int:
     import cv2
     import numpy as np
 
-    from human_tracker.evaluation.skin import frame_labels
     from human_tracker.io.frames import open_frames
     from human_tracker.vision.cues.skin import (
         SkinModel,
@@ -47,6 +46,7 @@ def _skin(options: argparse.Namespace) -> int:
         default_skin_model,
         frame_skin_model,
         has_colour,
+        segment_frame,
     )
 
     source = open_frames(options.input)
@@ -78,7 +78,7 @@ def _skin(options: argparse.Namespace) -> int:
                     faces = [face.landmarks for face in detector.detect(image)]
                     frame_model = frame_skin_model(image, faces, model, parameters.max_exposure_gain)
                     from_faces += frame_model is not model
-                mask = frame_labels(image, frame_model, parameters, options.working_width)
+                mask = segment_frame(image, frame_model, parameters, options.working_width)
             cv2.imwrite(str(options.out / f'{stem}.png'), np.where(mask > 0, 255, 0).astype(np.uint8))
             written += 1
             labelled += float(np.count_nonzero(mask)) / mask.size

@@ -11,8 +11,15 @@ import pytest
 from conftest import REPO
 
 from human_tracker.cli import main
-from human_tracker.evaluation.skin import frame_labels, labelled_mask_scores, labels_from_faces
-from human_tracker.vision.cues.skin import FaceSkin, default_skin_model, face_skin_class, face_skin_mask, ohta
+from human_tracker.evaluation.skin import labelled_mask_scores, labels_from_faces
+from human_tracker.vision.cues.skin import (
+    FaceSkin,
+    default_skin_model,
+    face_skin_class,
+    face_skin_mask,
+    ohta,
+    segment_frame,
+)
 from human_tracker.vision.cues.skin.face_skin import frame_skin_model
 from human_tracker.vision.faces.yunet import YuNetDetector, yunet_available
 
@@ -110,7 +117,7 @@ def test_the_skin_of_the_face_labels_real_frames_better_than_the_general_classes
     prior = default_skin_model()
     from_faces = labels_from_faces(YuNetDetector().detect, prior)
     for name in DRAWN:
-        general = labelled_mask_scores(MASKS / name, REAL / name, lambda image: frame_labels(image, prior))
+        general = labelled_mask_scores(MASKS / name, REAL / name, lambda image: segment_frame(image, prior))
         faces = labelled_mask_scores(MASKS / name, REAL / name, from_faces)
         assert general['frames'] == faces['frames'] == 10
         assert faces['f1'] > general['f1'] + 0.1, (name, general, faces)

@@ -17,19 +17,18 @@ import numpy as np
 
 from human_tracker.io.sequences import open_sequence
 from human_tracker.scenes.generator import SCENES, render_scene
-from human_tracker.vision.cues.resolution import to_working, working_scale
 from human_tracker.vision.cues.skin import (
     SkinModel,
     SkinParameters,
     default_skin_model,
     frame_skin_model,
+    segment_frame,
     segment_skin,
 )
 from human_tracker.vision.faces.detector import Detection
 
 __all__ = [
     'box_mask',
-    'frame_labels',
     'labelled_mask_scores',
     'labels_from_faces',
     'labelled_photo_scores',
@@ -149,28 +148,18 @@ def labelled_photo_scores(
     }
 
 
-def frame_labels(
-    image: np.ndarray, model: SkinModel, parameters: SkinParameters | None = None, width: int = 320
-) -> np.ndarray:
-    """Skin labels of a BGR frame as the skin stage computes them (at working ``width``, 0: full
-    size; lengths scaled), resized to the frame's size."""
-    parameters = parameters or SkinParameters()
-    scale = working_scale(image.shape[1], width)
-    labels = segment_skin(to_working(image, width), model, parameters.scaled(scale))
-    return cv2.resize(labels, (image.shape[1], image.shape[0]), interpolation=cv2.INTER_NEAREST)
-
-
 def labels_from_faces(
     detect: Callable[[np.ndarray], Sequence[Detection]], prior: SkinModel | None = None
 ) -> Callable[[np.ndarray], np.ndarray]:
-    """A frame's skin labels (:func:`frame_labels`) from the classes of the faces ``detect`` finds
-    in it (:func:`~human_tracker.vision.cues.skin.frame_skin_model`), the ``prior`` (the general
+    """A frame's skin labels (:func:`~human_tracker.vision.cues.skin.segment_frame`) from the
+    classes of the faces ``detect`` finds in it
+    (:func:`~human_tracker.vision.cues.skin.frame_skin_model`), the ``prior`` (the general
     classes) where it finds none."""
     prior = prior or default_skin_model()
 
     def labels_of(image: np.ndarray) -> np.ndarray:
         faces = [face.landmarks for face in detect(image)]
-        return frame_labels(image, frame_skin_model(image, faces, prior))
+        return segment_frame(image, frame_skin_model(image, faces, prior))
 
     return labels_of
 

@@ -84,17 +84,10 @@ class PoseCollector(Node):
 
     def received(self) -> int:
         """How many messages of a frame's outputs have been stored so far (they grow as they arrive)."""
-        stores = (self.poses, self.contours, self.velocities, self.markers, self.transforms, self.detections)
-        return (
-            sum(map(len, stores))
-            + sum(map(len, self.targets.values()))
-            + sum(map(len, self.regions.values()))
-            + sum(map(len, self.gestures.values()))
-            + len(self.detections_3d)
-            + len(self.tracked)
-            + len(self.bodies)
-            + len(self.matches)
-        )
+        by_stamp = (self.poses, self.contours, self.velocities, self.markers, self.detections, self.detections_3d)
+        lists = (*self.targets.values(), *self.transforms.values(), self.tracked, self.bodies, self.matches)
+        by_id = (*self.regions.values(), *self.gestures.values())
+        return sum(map(len, (*by_stamp, *lists, *by_id)))
 
     @staticmethod
     def _keep(store: dict) -> object:

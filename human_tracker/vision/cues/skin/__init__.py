@@ -47,7 +47,7 @@ from human_tracker.vision.cues.skin.model import (
 )
 from human_tracker.vision.cues.skin.parameters import REGION_METHODS, SkinParameters
 from human_tracker.vision.cues.skin.regions import candidate_cells, cell_chroma, hysteresis_regions, merge_cells
-from human_tracker.vision.cues.skin.segmenter import SkinSegmenter, segment_skin
+from human_tracker.vision.cues.skin.segmenter import SkinSegmenter, segment_frame, segment_skin
 
 __all__ = [
     'FaceSkin',
@@ -69,6 +69,7 @@ __all__ = [
     'histogram_modes',
     'merge_cells',
     'ohta',
+    'segment_frame',
     'segment_skin',
     'train_skin_model',
 ]

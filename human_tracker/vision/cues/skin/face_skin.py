@@ -58,8 +58,8 @@ MIN_FACE_PIXELS = 40
 # segmentation's ``match_scale`` (1.5): 2.0 x 1.5 = 3.0 holds 99 % of a 2-D Gaussian.
 FACE_MATCH_DISTANCE = 2.0
 # A face's class whose mean lies further than this many of the general model's match distances
-# from it is not skin (a coloured light, a face found on a poster in odd light): 3 keeps a TV
-# studio's warm light (faces at 1.4-2.0 of them) and refuses a blue or green cast.
+# from it is not skin: a warm light moves skin within it, a blue or green cast beyond it
+# (docs/decisions/skin-from-the-face.md).
 PRIOR_SCALE = 3.0
 
 

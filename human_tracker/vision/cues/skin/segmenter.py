@@ -9,6 +9,7 @@ import cv2
 import numpy as np
 
 from human_tracker.vision.cues.exposure import normalise_exposure
+from human_tracker.vision.cues.resolution import to_working, working_scale
 from human_tracker.vision.cues.skin.clusters import _cluster_statistics, _region_histograms, _row_modes, _two_means
 from human_tracker.vision.cues.skin.model import MIXED_SKIN, SKIN, SkinClass, SkinModel, ohta
 from human_tracker.vision.cues.skin.parameters import SkinParameters
@@ -92,6 +93,17 @@ def segment_skin(
         taken = _accepted(part_n, part_sums, part_squares, model, p)[part] & on_cells
         labels[rows[taken], cols[taken]] = MIXED_SKIN
     return labels
+
+
+def segment_frame(
+    image: np.ndarray, model: SkinModel, parameters: SkinParameters | None = None, width: int = 320
+) -> np.ndarray:
+    """Skin labels (:func:`segment_skin`) of a BGR frame as the skin stage computes them: at
+    working ``width`` (0: full size), lengths scaled, then resized to the frame's size."""
+    parameters = parameters or SkinParameters()
+    scale = working_scale(image.shape[1], width)
+    labels = segment_skin(to_working(image, width), model, parameters.scaled(scale))
+    return cv2.resize(labels, (image.shape[1], image.shape[0]), interpolation=cv2.INTER_NEAREST)
 
 
 @dataclass
